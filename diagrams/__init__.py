@@ -1,0 +1,1 @@
+"""rpod.diagrams"""
