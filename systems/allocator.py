@@ -1,0 +1,90 @@
+"""WrenchAllocator: desired body wrench in, thruster duty levels out (paper 003 eq. 14).
+
+Owns only the Drake wrapping; the optimisation is `rpod.models.thrusters.allocate_duty`
+(box-constrained least squares, then an exact minimum-fuel tie-break), kept in `models` so
+planners can reuse it. It does not modulate (`rpod.systems.pwm`) nor apply limits in time
+(`rpod.systems.thruster_bank`).
+
+Cost. The output is a direct feedthrough of the input and costs a least-squares solve plus an
+LP (about 2 ms; 0.2 ms with minimize_fuel=False) each time it is recomputed. Drake's cache
+recomputes it only when the input changes, so feed it from a discrete (sampled) controller
+output, e.g. a controller with a periodic update or a ZeroOrderHold, whose value is constant
+between control instants; fed by a continuous signal it would be re-solved at every
+integrator stage.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pydrake.systems.framework import BasicVector, Context, LeafSystem
+
+from rpod.models.thrusters import ThrusterLayout, allocate_duty, validate_layout, wrench_matrix
+
+
+class WrenchAllocator(LeafSystem):
+    """Duty levels of fixed thrusters that best produce a desired body wrench.
+
+    u = argmin ||W (B u - w)||^2 s.t. 0 <= u <= 1 (paper 003 eq. 14), B = wrench_matrix(layout);
+    among equally good u, the one of least propellant mass flow (exact lexicographic
+    tie-break; see `allocate_duty`). A non-finite desired wrench gives u = 0.
+
+    Input ports:
+        body_wrench_desired (6): [tau_C; f_C] in the chaser body frame C, N m and N.
+
+    Output ports:
+        thruster_duty (n): levels in [0, 1].
+    """
+
+    def __init__(
+        self,
+        layout: ThrusterLayout,
+        weights: np.ndarray | None = None,
+        minimize_fuel: bool = True,
+    ):
+        """Builds the allocator.
+
+        Args:
+            layout: A fixed (not gimbaled) layout.
+            weights: Diagonal of W, 6 numbers >= 0 ordered like the wrench (None: ones).
+                Torque is in N m and force in N, so weights set their relative importance.
+            minimize_fuel: Run the minimum-propellant tie-break among optimal allocations.
+
+        Raises:
+            ValueError: For a gimbaled layout or bad weights.
+        """
+        super().__init__()
+        validate_layout(layout)
+        if layout.gimbaled:
+            raise ValueError("WrenchAllocator needs a fixed layout (gimbaled=False)")
+        self._B = wrench_matrix(layout)
+        self._weights = None if weights is None else np.asarray(weights, dtype=float).reshape(6)
+        bad_weights = self._weights is not None and (
+            np.any(self._weights < 0) or not np.any(self._weights > 0)
+        )
+        if bad_weights:
+            raise ValueError(f"weights must be 6 numbers >= 0, not all 0; got {weights!r}")
+        self._minimize_fuel = bool(minimize_fuel)
+        self._fuel_cost = layout.max_mass_flows_kg_s
+        self._wrench_port = self.DeclareVectorInputPort("body_wrench_desired", 6)
+        self.DeclareVectorOutputPort(
+            "thruster_duty",
+            layout.count,
+            self._calc_duty,
+            prerequisites_of_calc={self.input_port_ticket(self._wrench_port.get_index())},
+        )
+
+    @property
+    def wrench_matrix(self) -> np.ndarray:
+        """B (6 x n), wrench = B @ duty."""
+        return self._B
+
+    def _calc_duty(self, context: Context, output: BasicVector) -> None:
+        w = self._wrench_port.Eval(context)
+        u = allocate_duty(
+            self._B,
+            w,
+            self._weights,
+            minimize_fuel=self._minimize_fuel,
+            fuel_cost=self._fuel_cost,
+        )
+        output.SetFromVector(u)
