@@ -1,0 +1,450 @@
+"""Scene geometry of a rendezvous for Meshcat: bodies, docking corridor, LVLH triad, chaser trail.
+
+This module owns what the user sees in Meshcat and in the standalone HTML recording. It does not
+own the Meshcat instance, the recording (see `rpod.diagrams.recording`), or any dynamics.
+
+The Meshcat world frame is the target's LVLH frame L (origin at the target's centre of mass, x
+radial out, y along-track, z orbit normal). From the four inputs the system forms
+
+    R_LT = R_IL^T R_IT,   R_LC = R_IL^T R_IC,   X_LT = (R_LT, 0),   X_LC = (R_LC, p_LC_L).
+
+Two drawing paths are used (the split is deliberate):
+
+- Bodies (option a). The target box and the chaser box, each with a small body-axes triad, are
+  registered with a SceneGraph (one source, frames "target" and "chaser", illustration role).
+  `RendezvousScene` outputs their poses as a FramePoseVector and a `MeshcatVisualizer` draws them
+  under `/drake/<prefix>/bodies`. Its transforms carry the simulation time, so they are recorded.
+- Overlays (option b), drawn directly with Meshcat under `/drake/<prefix>/overlay` from this
+  system's initialization and periodic publish events:
+  * `lvlh_triad`: three cylinders at the origin, x red, y green, z blue (static).
+  * `target_frame`: a node whose transform is X_LT (recorded at every publish). Under it, fixed in
+    T: the docking port (small sphere), the docking axis (a thin cylinder along d_T; WebGL draws
+    SetLine one pixel wide, which is hard to see), and the approach corridor, a translucent
+    MeshcatCone with apex at the port, axis d_T, half angle and length from the config, plus a
+    wireframe outline (8 generators and the rim). The corridor therefore rotates with the target.
+  * `trail`: a fixed pool of `trail_max_points` small spheres created at initialization and hidden
+    (recorded `visible=False` at the start time). Every `trail_stride`-th publish moves the next
+    sphere of the pool to p_LC_L and shows it, both recorded at that time. When the pool is used
+    up, the oldest sphere is reused (ring buffer): it is hidden and pinned at its old place at the
+    previous marker time, then moved and shown at the new time, so a replay never shows a marker
+    sliding across the scene. The trail therefore shows the last
+    `trail_max_points * trail_stride * publish_period_s` seconds (200 s with the defaults) and it
+    grows in the replay exactly as it did in the simulation.
+
+Why the pool: a Meshcat recording animates only transforms and properties of objects that exist
+in the final scene tree; it cannot replay object creation. Pre-allocated, toggled markers make
+the trail a true animation at a bounded scene size.
+
+Cost: everything happens in publish events at `publish_period_s` (default 0.5 s of simulated
+time): one transform for the target node and at most four calls for the trail per publish; the
+pose output is only evaluated by the visualizer's publish. Nothing runs per integrator step.
+
+The trail bookkeeping (last marker positions, a counter) lives in Python members, reset by the
+initialization event, the way MeshcatVisualizer keeps its own bookkeeping: one scene serves one
+simulation (context) at a time. For a recording, call `Meshcat.StartRecording` before
+`Simulator.Initialize` so the initial hidden state of the trail is recorded.
+"""
+
+# No `from __future__ import annotations` here: yaml_load_typed reads SceneConfig's field types
+# at run time and fails on string annotations such as 'list[float]'.
+from dataclasses import dataclass, field
+
+import numpy as np
+from pydrake.common.eigen_geometry import Quaternion
+from pydrake.common.value import AbstractValue
+from pydrake.geometry import (
+    Box,
+    Cylinder,
+    FramePoseVector,
+    GeometryFrame,
+    GeometryInstance,
+    MakePhongIllustrationProperties,
+    Meshcat,
+    MeshcatCone,
+    MeshcatVisualizer,
+    MeshcatVisualizerParams,
+    Rgba,
+    SceneGraph,
+    Sphere,
+)
+from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.systems.framework import DiagramBuilder, LeafSystem, OutputPort
+
+# Colours (r, g, b, a). Axis colours follow the usual x red, y green, z blue.
+TARGET_RGBA = Rgba(0.85, 0.65, 0.20, 1.0)
+CHASER_RGBA = Rgba(0.20, 0.45, 0.85, 1.0)
+TRAIL_RGBA = Rgba(0.30, 0.65, 1.00, 1.0)
+DOCKING_AXIS_RGBA = Rgba(1.00, 0.45, 0.00, 1.0)
+CORRIDOR_RGBA = Rgba(0.20, 0.80, 0.40, 0.18)
+CORRIDOR_EDGE_RGBA = Rgba(0.10, 0.55, 0.25, 1.0)
+AXIS_RGBA = (Rgba(0.9, 0.1, 0.1, 1.0), Rgba(0.1, 0.75, 0.1, 1.0), Rgba(0.1, 0.2, 0.9, 1.0))
+
+
+@dataclass
+class SceneConfig:
+    """What the Meshcat scene draws and how often it is updated.
+
+    Loadable with `pydrake.common.yaml.yaml_load_typed`; `validate()` names a bad field.
+    """
+
+    # Target box edge lengths along the T axes (x, y, z) [m].
+    target_box_size_m: list[float] = field(default_factory=lambda: [2.0, 2.0, 2.0])
+    # Chaser box edge lengths along the C axes (x, y, z) [m].
+    chaser_box_size_m: list[float] = field(default_factory=lambda: [1.5, 1.5, 1.5])
+    # Docking port: a point of the target, from the target CoM, expressed in T [m].
+    docking_port_T: list[float] = field(default_factory=lambda: [0.0, 0.0, 1.0])
+    # Docking axis direction in T (normalised here); the corridor opens along it.
+    docking_axis_T: list[float] = field(default_factory=lambda: [0.0, 0.0, 1.0])
+    # Approach-corridor cone half angle about the docking axis [deg].
+    corridor_half_angle_deg: float = 30.0
+    # Approach-corridor length from the docking port along the axis [m].
+    corridor_length_m: float = 20.0
+    # Period of scene updates (and of the MeshcatVisualizer) in simulated time [s].
+    publish_period_s: float = 0.5
+    # Draw the chaser's trail (past positions).
+    trail: bool = True
+    # Size of the trail's marker pool; older markers are reused (ring buffer).
+    trail_max_points: int = 400
+    # Place a trail marker every `trail_stride` publishes (longer history, sparser trail).
+    trail_stride: int = 1
+    # Radius of a trail marker [m].
+    trail_marker_radius_m: float = 0.1
+    # Length of the LVLH axes triad at the origin [m]; the body triads are scaled to the boxes.
+    lvlh_axis_length_m: float = 3.0
+    # Meshcat camera position in L, looking at the origin [m]; empty leaves the camera alone.
+    camera_position_L_m: list[float] = field(default_factory=lambda: [10.0, -20.0, 9.0])
+    # Keep Meshcat's grey gradient background. It is drawn as a finite box, whose faces cut
+    # through the view once the camera is some 30 m out; off gives a plain white background.
+    meshcat_background: bool = False
+
+    def validate(self) -> None:
+        """Raises ValueError naming the first bad field."""
+
+        def _vector(name: str, positive: bool = False, nonzero: bool = False) -> None:
+            value = np.asarray(getattr(self, name), dtype=float)
+            if value.shape != (3,) or not np.all(np.isfinite(value)):
+                raise ValueError(f"SceneConfig.{name} must be 3 finite numbers, got {value}")
+            if positive and np.any(value <= 0.0):
+                raise ValueError(f"SceneConfig.{name} must be positive, got {value}")
+            if nonzero and np.linalg.norm(value) < 1e-9:
+                raise ValueError(f"SceneConfig.{name} must be a nonzero vector")
+
+        _vector("target_box_size_m", positive=True)
+        _vector("chaser_box_size_m", positive=True)
+        _vector("docking_port_T")
+        _vector("docking_axis_T", nonzero=True)
+        if not 0.0 < self.corridor_half_angle_deg < 90.0:
+            raise ValueError("SceneConfig.corridor_half_angle_deg must be in (0, 90)")
+        for name in (
+            "corridor_length_m",
+            "publish_period_s",
+            "trail_marker_radius_m",
+            "lvlh_axis_length_m",
+        ):
+            if not np.isfinite(getattr(self, name)) or getattr(self, name) <= 0.0:
+                raise ValueError(f"SceneConfig.{name} must be positive")
+        if self.trail_max_points < 1 or self.trail_stride < 1:
+            raise ValueError("SceneConfig.trail_max_points and trail_stride must be >= 1")
+        if len(self.camera_position_L_m) not in (0, 3):
+            raise ValueError("SceneConfig.camera_position_L_m must be empty or 3 numbers")
+
+
+def rotation_from_wxyz(q_wxyz: np.ndarray) -> RotationMatrix:
+    """Rotation matrix of a (w, x, y, z) quaternion, normalised first (integrators drift)."""
+    q = np.asarray(q_wxyz, dtype=float)
+    return RotationMatrix(Quaternion(q / np.linalg.norm(q)))
+
+
+def _axis_cylinder_pose(axis: int, length: float) -> RigidTransform:
+    """Pose of a cylinder (long axis z) lying along `axis` from the origin to `length`."""
+    R = [
+        RotationMatrix.MakeYRotation(np.pi / 2),
+        RotationMatrix.MakeXRotation(-np.pi / 2),
+        RotationMatrix(),
+    ][axis]
+    p = np.zeros(3)
+    p[axis] = length / 2.0
+    return RigidTransform(R, p)
+
+
+class RendezvousScene(LeafSystem):
+    """Poses of the target and chaser bodies in L, plus Meshcat overlays (corridor, trail, LVLH).
+
+    Input ports:
+        relative_state_L (6): p_LC_L, v_LC_L.
+        q_IL (4): LVLH attitude in ECI, (w, x, y, z).
+        target_attitude (7): q_IT (w, x, y, z), w_IT_T.
+        chaser_attitude (7): q_IC (w, x, y, z), w_IC_C.
+    Output port:
+        geometry_pose: FramePoseVector with X_LT and X_LC, for SceneGraph.
+    """
+
+    def __init__(
+        self, scene_graph: SceneGraph, meshcat: Meshcat, config: SceneConfig, prefix: str = "rpod"
+    ):
+        """Registers the body geometry with `scene_graph` and keeps `meshcat` for overlays.
+
+        Args:
+            scene_graph: SceneGraph that receives the target and chaser frames and boxes.
+            meshcat: where the overlays are drawn.
+            config: what to draw; validated here.
+            prefix: Meshcat path prefix; overlays go under "<prefix>/overlay".
+        """
+        super().__init__()
+        config.validate()
+        self._config = config
+        self._meshcat = meshcat
+        self._overlay_path = f"{prefix}/overlay"
+
+        self._relative_state_port = self.DeclareVectorInputPort("relative_state_L", 6)
+        self._q_IL_port = self.DeclareVectorInputPort("q_IL", 4)
+        self._target_attitude_port = self.DeclareVectorInputPort("target_attitude", 7)
+        self._chaser_attitude_port = self.DeclareVectorInputPort("chaser_attitude", 7)
+
+        self._source_id = scene_graph.RegisterSource("rpod_scene")
+        self._target_frame_id = self._RegisterBody(
+            scene_graph, "target", config.target_box_size_m, TARGET_RGBA
+        )
+        self._chaser_frame_id = self._RegisterBody(
+            scene_graph, "chaser", config.chaser_box_size_m, CHASER_RGBA
+        )
+
+        input_tickets = {
+            self.input_port_ticket(port.get_index())
+            for port in (
+                self._relative_state_port,
+                self._q_IL_port,
+                self._target_attitude_port,
+                self._chaser_attitude_port,
+            )
+        }
+        self._pose_port = self.DeclareAbstractOutputPort(
+            "geometry_pose",
+            lambda: AbstractValue.Make(FramePoseVector()),
+            self._CalcFramePoses,
+            prerequisites_of_calc=input_tickets,
+        )
+
+        self.DeclareInitializationPublishEvent(self._Initialize)
+        self.DeclarePeriodicPublishEvent(config.publish_period_s, 0.0, self._Publish)
+
+        # Trail bookkeeping (see module docstring); reset in _Initialize.
+        self._trail_p_LC_L = np.zeros((config.trail_max_points, 3))
+        self._trail_count = 0
+        self._publish_count = 0
+        self._last_publish_time = -np.inf
+        self._last_trail_time = -np.inf
+
+    def _RegisterBody(self, scene_graph: SceneGraph, name: str, size_m: list[float], rgba: Rgba):
+        """Registers a frame with a box and a body-axes triad; returns the FrameId."""
+        frame_id = scene_graph.RegisterFrame(self._source_id, GeometryFrame(name))
+        box_id = scene_graph.RegisterGeometry(
+            self._source_id,
+            frame_id,
+            GeometryInstance(RigidTransform(), Box(*size_m), f"{name}_box"),
+        )
+        scene_graph.AssignRole(self._source_id, box_id, MakePhongIllustrationProperties(rgba.rgba))
+        # Triad length 0.8 of the largest edge, so it sticks out of a cube-like box.
+        length = 0.8 * max(size_m)
+        radius = 0.02 * max(size_m)
+        for axis, axis_name in enumerate("xyz"):
+            axis_id = scene_graph.RegisterGeometry(
+                self._source_id,
+                frame_id,
+                GeometryInstance(
+                    _axis_cylinder_pose(axis, length),
+                    Cylinder(radius, length),
+                    f"{name}_{axis_name}_axis",
+                ),
+            )
+            scene_graph.AssignRole(
+                self._source_id, axis_id, MakePhongIllustrationProperties(AXIS_RGBA[axis].rgba)
+            )
+        return frame_id
+
+    def get_geometry_pose_output_port(self) -> OutputPort:
+        """FramePoseVector output for SceneGraph."""
+        return self._pose_port
+
+    def source_id(self):
+        """SceneGraph SourceId of the bodies."""
+        return self._source_id
+
+    def target_frame_id(self):
+        """SceneGraph FrameId of the target body frame T."""
+        return self._target_frame_id
+
+    def chaser_frame_id(self):
+        """SceneGraph FrameId of the chaser body frame C."""
+        return self._chaser_frame_id
+
+    def CalcPoses(self, context) -> tuple[RigidTransform, RigidTransform]:
+        """Returns (X_LT, X_LC) from the inputs."""
+        R_IL = rotation_from_wxyz(self._q_IL_port.Eval(context))
+        R_IT = rotation_from_wxyz(self._target_attitude_port.Eval(context)[:4])
+        R_IC = rotation_from_wxyz(self._chaser_attitude_port.Eval(context)[:4])
+        p_LC_L = self._relative_state_port.Eval(context)[:3]
+        R_LI = R_IL.inverse()
+        return RigidTransform(R_LI @ R_IT, np.zeros(3)), RigidTransform(R_LI @ R_IC, p_LC_L)
+
+    def _CalcFramePoses(self, context, output: AbstractValue) -> None:
+        X_LT, X_LC = self.CalcPoses(context)
+        poses = output.get_mutable_value()
+        poses.clear()
+        poses.set_value(self._target_frame_id, X_LT)
+        poses.set_value(self._chaser_frame_id, X_LC)
+
+    def _Initialize(self, context) -> None:
+        """Creates the overlay objects, hides the trail pool, and publishes the first state."""
+        meshcat, config, root = self._meshcat, self._config, self._overlay_path
+        t = context.get_time()
+        meshcat.Delete(root)
+
+        # LVLH triad at the origin (static).
+        radius = 0.015 * config.lvlh_axis_length_m
+        for axis, axis_name in enumerate("xyz"):
+            path = f"{root}/lvlh_triad/{axis_name}"
+            meshcat.SetObject(path, Cylinder(radius, config.lvlh_axis_length_m), AXIS_RGBA[axis])
+            meshcat.SetTransform(path, _axis_cylinder_pose(axis, config.lvlh_axis_length_m))
+
+        # Docking port, docking axis and corridor, fixed in T under the target node.
+        target = f"{root}/target_frame"
+        p_TP_T = np.asarray(config.docking_port_T, dtype=float)
+        X_TK = RigidTransform(RotationMatrix.MakeFromOneVector(config.docking_axis_T, 2), p_TP_T)
+        port_radius = 0.06 * max(config.target_box_size_m)
+        meshcat.SetObject(f"{target}/docking_port", Sphere(port_radius), DOCKING_AXIS_RGBA)
+        meshcat.SetTransform(f"{target}/docking_port", RigidTransform(p_TP_T))
+        axis_length = 1.1 * config.corridor_length_m
+        meshcat.SetObject(
+            f"{target}/docking_axis", Cylinder(0.3 * port_radius, axis_length), DOCKING_AXIS_RGBA
+        )
+        meshcat.SetTransform(
+            f"{target}/docking_axis", X_TK @ RigidTransform([0.0, 0.0, axis_length / 2.0])
+        )
+        height = config.corridor_length_m
+        base_radius = height * np.tan(np.radians(config.corridor_half_angle_deg))
+        meshcat.SetObject(
+            f"{target}/corridor/cone", MeshcatCone(height, base_radius, base_radius), CORRIDOR_RGBA
+        )
+        meshcat.SetTransform(f"{target}/corridor", X_TK)
+        angles = np.linspace(0.0, 2.0 * np.pi, 33)
+        rim_K = np.vstack(
+            [
+                base_radius * np.cos(angles),
+                base_radius * np.sin(angles),
+                np.full_like(angles, height),
+            ]
+        )
+        generators = rim_K[:, :-1:4]
+        meshcat.SetLineSegments(
+            f"{target}/corridor/edges",
+            np.hstack([np.zeros_like(generators), rim_K[:, :-1]]),
+            np.hstack([generators, rim_K[:, 1:]]),
+            2.0,
+            CORRIDOR_EDGE_RGBA,
+        )
+
+        # Trail pool, hidden from the start of the recording.
+        self._trail_count = 0
+        self._publish_count = 0
+        self._last_publish_time = -np.inf
+        self._last_trail_time = -np.inf
+        if config.trail:
+            marker = Sphere(config.trail_marker_radius_m)
+            for i in range(config.trail_max_points):
+                path = self._TrailPath(i)
+                meshcat.SetObject(path, marker, TRAIL_RGBA)
+                meshcat.SetProperty(path, "visible", False, time_in_recording=t)
+        self._Publish(context)
+
+    def _TrailPath(self, i: int) -> str:
+        return f"{self._overlay_path}/trail/{i:05d}"
+
+    def _Publish(self, context) -> None:
+        """Moves the target node and adds a trail marker; idempotent at a repeated time."""
+        t = context.get_time()
+        if t <= self._last_publish_time:
+            return  # Initialization and the periodic event can both fire at the start time.
+        self._last_publish_time = t
+        X_LT, X_LC = self.CalcPoses(context)
+        self._meshcat.SetTransform(f"{self._overlay_path}/target_frame", X_LT, time_in_recording=t)
+        if self._config.trail and self._publish_count % self._config.trail_stride == 0:
+            self._AddTrailMarker(t, X_LC.translation())
+        self._publish_count += 1
+
+    def _AddTrailMarker(self, t: float, p_LC_L: np.ndarray) -> None:
+        meshcat, pool_size = self._meshcat, self._config.trail_max_points
+        slot = self._trail_count % pool_size
+        path = self._TrailPath(slot)
+        if self._trail_count >= pool_size:
+            # Reuse the oldest marker: hide and pin it at the previous marker time, so the
+            # replay's interpolation moves it only while it is hidden.
+            t_previous = self._last_trail_time
+            meshcat.SetProperty(path, "visible", False, time_in_recording=t_previous)
+            meshcat.SetTransform(
+                path, RigidTransform(self._trail_p_LC_L[slot]), time_in_recording=t_previous
+            )
+        meshcat.SetTransform(path, RigidTransform(p_LC_L), time_in_recording=t)
+        meshcat.SetProperty(path, "visible", True, time_in_recording=t)
+        self._trail_p_LC_L[slot] = p_LC_L
+        self._trail_count += 1
+        self._last_trail_time = t
+
+    @staticmethod
+    def AddToBuilder(
+        builder: DiagramBuilder,
+        meshcat: Meshcat,
+        config: SceneConfig,
+        relative_state_L: OutputPort,
+        q_IL: OutputPort,
+        target_attitude: OutputPort,
+        chaser_attitude: OutputPort,
+        scene_graph: SceneGraph | None = None,
+        name: str = "scene",
+        prefix: str = "rpod",
+    ) -> "RendezvousScene":
+        """Adds the scene, a SceneGraph (unless given) and a MeshcatVisualizer, and wires them.
+
+        Systems are named `name`, `name + ".scene_graph"` and `name + ".meshcat_visualizer"`.
+        The visualizer draws under "<prefix>/bodies" at `config.publish_period_s`; overlays go
+        under "<prefix>/overlay" (relative Meshcat paths, i.e. below "/drake"). Sets the Meshcat
+        camera (if `config.camera_position_L_m` is given) and background visibility.
+
+        Args:
+            builder: the diagram builder holding the four source ports.
+            meshcat: Meshcat to draw in.
+            config: scene config.
+            relative_state_L: port with p_LC_L, v_LC_L (6).
+            q_IL: port with the LVLH quaternion in ECI, w x y z (4).
+            target_attitude: port with q_IT (w x y z), w_IT_T (7).
+            chaser_attitude: port with q_IC (w x y z), w_IC_C (7).
+            scene_graph: an existing SceneGraph in `builder` to register with; a new one is
+                added when None.
+            name: name of the scene system in the diagram.
+            prefix: Meshcat path prefix.
+
+        Returns:
+            The RendezvousScene.
+        """
+        if scene_graph is None:
+            scene_graph = builder.AddNamedSystem(f"{name}.scene_graph", SceneGraph())
+        scene = builder.AddNamedSystem(name, RendezvousScene(scene_graph, meshcat, config, prefix))
+        builder.Connect(relative_state_L, scene.GetInputPort("relative_state_L"))
+        builder.Connect(q_IL, scene.GetInputPort("q_IL"))
+        builder.Connect(target_attitude, scene.GetInputPort("target_attitude"))
+        builder.Connect(chaser_attitude, scene.GetInputPort("chaser_attitude"))
+        builder.Connect(
+            scene.get_geometry_pose_output_port(),
+            scene_graph.get_source_pose_port(scene.source_id()),
+        )
+        params = MeshcatVisualizerParams()
+        params.publish_period = config.publish_period_s
+        params.prefix = f"{prefix}/bodies"
+        visualizer = builder.AddNamedSystem(
+            f"{name}.meshcat_visualizer", MeshcatVisualizer(meshcat, params)
+        )
+        builder.Connect(scene_graph.get_query_output_port(), visualizer.query_object_input_port())
+        meshcat.SetProperty("/Background", "visible", config.meshcat_background)
+        if len(config.camera_position_L_m) == 3:
+            meshcat.SetCameraPose(np.asarray(config.camera_position_L_m, dtype=float), np.zeros(3))
+        return scene
