@@ -1,0 +1,103 @@
+"""ECI <-> LVLH frame transformations for relative motion.
+
+Owns: the LVLH frame L of the target (x radial out, y along-track, z orbit normal, papers 000 and
+004), its attitude R_IL, its exact angular velocity w_IL_L (including the out-of-plane component
+that a non-central force such as J2 causes), and the relative position and velocity transforms
+both ways, the velocity being the one seen in the rotating frame L.
+Does not own: the gravity models (rpod.models.gravity) or the CW linearisation (rpod.models.cw).
+
+Relative vectors are passed as differences (p_TC_I = p_IC_I - p_IT_I) rather than as two absolute
+positions: at 7,000 km a subtraction of absolute positions keeps only ~1e-9 m of the digits, and
+callers that already hold the difference (the truth integrates it) keep all of them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pydrake.common.eigen_geometry import Quaternion
+from pydrake.math import RotationMatrix
+
+
+def _cross(a, b):
+    """a x b on 3-sequences, with plain arithmetic (np.cross costs ~10 us on 3-vectors)."""
+    return np.array(
+        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    )
+
+
+def lvlh_rotation(p_IT_I: np.ndarray, v_IT_I: np.ndarray) -> np.ndarray:
+    """R_IL, whose columns are the LVLH axes x (radial), y (along-track), z (normal) in I."""
+    x_axis = p_IT_I / np.sqrt(p_IT_I @ p_IT_I)
+    h = _cross(p_IT_I, v_IT_I)
+    z_axis = h / np.sqrt(h @ h)
+    return np.column_stack((x_axis, _cross(z_axis, x_axis), z_axis))
+
+
+def lvlh_angular_velocity(p_IT_I: np.ndarray, v_IT_I: np.ndarray, a_IT_I: np.ndarray) -> np.ndarray:
+    """w_IL_L, the exact angular velocity of L in I, expressed in L.
+
+    With r = |p|, h = |p x v| and a_n the acceleration along the orbit normal,
+    w_IL_L = [r a_n / h, 0, h / r^2]: the z part is the orbital rate; the x part turns the
+    orbit plane and vanishes for a central force (it is J2's nodal regression, instantaneously).
+    """
+    r = np.sqrt(p_IT_I @ p_IT_I)
+    h_vec = _cross(p_IT_I, v_IT_I)
+    h = np.sqrt(h_vec @ h_vec)
+    a_normal = np.dot(a_IT_I, h_vec) / h
+    return np.array([r * a_normal / h, 0.0, h / (r * r)])
+
+
+def inertial_to_lvlh(
+    R_IL: np.ndarray, w_IL_L: np.ndarray, p_TC_I: np.ndarray, v_TC_I: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Relative state in I -> (p_LC_L, v_LC_L), the velocity as seen in the rotating frame L.
+
+    p_LC_L = R_LI p_TC_I;  v_LC_L = R_LI v_TC_I - w_IL_L x p_LC_L  (transport theorem).
+    """
+    p_LC_L = R_IL.T @ p_TC_I
+    v_LC_L = R_IL.T @ v_TC_I - _cross(w_IL_L, p_LC_L)
+    return p_LC_L, v_LC_L
+
+
+def lvlh_to_inertial(
+    R_IL: np.ndarray, w_IL_L: np.ndarray, p_LC_L: np.ndarray, v_LC_L: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """(p_LC_L, v_LC_L) -> relative state (p_TC_I, v_TC_I) in I; the inverse of inertial_to_lvlh."""
+    p_TC_I = R_IL @ p_LC_L
+    v_TC_I = R_IL @ (v_LC_L + _cross(w_IL_L, p_LC_L))
+    return p_TC_I, v_TC_I
+
+
+def quaternion_wxyz(R: np.ndarray) -> np.ndarray:
+    """Unit quaternion (w, x, y, z) of a rotation matrix, via pydrake."""
+    return RotationMatrix(R).ToQuaternion().wxyz()
+
+
+def rotation_from_wxyz(q_wxyz: np.ndarray) -> np.ndarray:
+    """Rotation matrix of a (not necessarily unit) quaternion (w, x, y, z), via pydrake."""
+    q = np.asarray(q_wxyz, dtype=float)
+    return RotationMatrix(Quaternion(q / np.linalg.norm(q))).matrix()
+
+
+def rotate_by_wxyz(q_wxyz, v) -> tuple[float, float, float]:
+    """R(q) v for a unit quaternion (w, x, y, z), float-only for simulation hot paths.
+
+    v' = v + 2 w (u x v) + 2 u x (u x v), u = (x, y, z): the Rodrigues form of q v q*.
+    """
+    w, qx, qy, qz = q_wxyz[0], q_wxyz[1], q_wxyz[2], q_wxyz[3]
+    vx, vy, vz = v[0], v[1], v[2]
+    tx = 2.0 * (qy * vz - qz * vy)
+    ty = 2.0 * (qz * vx - qx * vz)
+    tz = 2.0 * (qx * vy - qy * vx)
+    return (
+        vx + w * tx + (qy * tz - qz * ty),
+        vy + w * ty + (qz * tx - qx * tz),
+        vz + w * tz + (qx * ty - qy * tx),
+    )
+
+
+def rotation_from_rpy_deg(rpy_deg) -> np.ndarray:
+    """Rotation matrix from roll-pitch-yaw angles in degrees (Drake's RollPitchYaw convention)."""
+    from pydrake.math import RollPitchYaw
+
+    return RotationMatrix(RollPitchYaw(np.radians(np.asarray(rpy_deg, dtype=float)))).matrix()
