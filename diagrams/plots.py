@@ -1,0 +1,601 @@
+"""PNG plots of a run's log: trajectories in L and T, thrust, thruster duty, separation.
+
+Owns: `write_plots` (the `plots/*.png` of `rpod run`, DESIGN.md "Command line and outputs") and
+`chaser_in_target_frame` (p_TC_T from the logged attitudes). Does not own: the simulation or the
+log itself (the diagram builders), nor Meshcat recordings (rpod.diagrams.recording).
+
+Figures, one file each (`FIGURE_NAMES`):
+  trajectory_lvlh.png          chaser in LVLH (L): y-x (V-bar horizontal, R-bar vertical), y-z, 3-D;
+                               start/end marked; the commanded hold point when logged.
+  trajectory_target_body.png   chaser in the target body frame T: components vs time and a 3-D path.
+  thrust.png                   body torque and force (chaser frame C) and propellant used vs time.
+  duty.png                     thruster duty cycles and the on/off pattern vs time.
+  separation.png               separation distance and range |p_LC_L| vs time.
+
+Decisions, written down as DESIGN.md asks:
+- matplotlib through `matplotlib.figure.Figure` + the Agg canvas, never pyplot: no global figure
+  registry, no backend switching, safe to call from worker threads (sweeps).
+- Missing data is not an error: a key that is absent, has the wrong shape, has zero columns or a
+  first axis that disagrees with the log's N is ignored; a panel without data is omitted, a figure
+  without any is not written (and a stale file of that name from an earlier run in the same folder
+  is removed, so the folder never mixes runs). If drawing a figure still fails, the error is logged
+  as a warning with its traceback and the other figures are written: plots are a side output and
+  must never cost the run's other results. A missing `t` falls back to the sample index.
+- Each PNG is written to a hidden temporary name in the same folder, then `os.replace`d, so an
+  interrupted run never leaves a truncated file under the final name (no fsync: this guards
+  against a killed process, not against a power cut).
+- Heatmaps (duty and on/off with more than `MAX_DUTY_LINES` thrusters) are averaged over blocks
+  of consecutive samples down to at most `MAX_HEATMAP_COLUMNS` columns; sample i is drawn over
+  [t_i, t_{i+1}) (zero-order hold, as the duty is commanded), with pcolormesh so non-uniform
+  sampling is drawn at its true times. Averaged on/off cells read as the fraction of time on.
+- p_TC_T = R_IT^T R_IL p_LC_L is computed with a vectorised numpy quaternion rotation (one call
+  per array instead of 2 N pydrake calls); the test checks it against pydrake's RotationMatrix.
+  Quaternions are (w, x, y, z) and normalised first; a zero or non-finite one gives NaN rows.
+- Log scale for separation/range when every value is positive and they span >= 2 decades. A
+  separation <= 0 (contact or penetration) gets a zero line and, if the run still spans decades,
+  a symlog scale, linear within max(penetration depth, 1e-4 x largest distance) of zero.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import uuid
+from collections.abc import Callable, Mapping
+from pathlib import Path
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from mpl_toolkits.mplot3d import Axes3D  # noqa: F401  (registers the "3d" projection)
+
+_logger = logging.getLogger(__name__)
+
+FIGURE_NAMES = (
+    "trajectory_lvlh.png",
+    "trajectory_target_body.png",
+    "thrust.png",
+    "duty.png",
+    "separation.png",
+)
+MAX_DUTY_LINES = 6  # more thrusters than this: duty drawn as a heatmap
+MAX_HEATMAP_COLUMNS = 800  # time columns of a heatmap after block averaging
+MAX_LINE_BUCKETS = 1000  # dense time series drawn as the min/max envelope of this many runs
+_DPI = 100
+_COMPONENT_COLOURS = ("tab:red", "tab:green", "tab:blue")
+
+# Expected trailing shape of each known key (None: one value per sample; -1: any column count).
+_SHAPES = {
+    "t": None,
+    "p_LC_L": 3,
+    "v_LC_L": 3,
+    "q_IT": 4,
+    "w_IT_T": 3,
+    "q_IC": 4,
+    "w_IC_C": 3,
+    "q_IL": 4,
+    "thruster_duty": -1,
+    "thruster_on": -1,
+    "body_wrench": 6,
+    "propellant_kg": None,
+    "separation_m": None,
+    "hold_point_L": 3,
+    "p_TC_T": 3,
+}
+
+
+# --------------------------------------------------------------------------------------------
+# Frames
+
+
+def _rotate(q_wxyz: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """R(q) v for rows of quaternions (..., 4) (w, x, y, z; normalised here) and vectors (..., 3).
+
+    v' = v + 2 w (u x v) + 2 u x (u x v), u the vector part of the unit quaternion.
+    """
+    q = np.asarray(q_wxyz, dtype=float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        norm = np.linalg.norm(q, axis=-1, keepdims=True)
+        q = np.where((norm > 0.0) & np.isfinite(norm), q / norm, np.nan)
+    w = q[..., :1]
+    u = q[..., 1:]
+    uv = np.cross(u, v)
+    return v + 2.0 * w * uv + 2.0 * np.cross(u, uv)
+
+
+def chaser_in_target_frame(q_IT: np.ndarray, q_IL: np.ndarray, p_LC_L: np.ndarray) -> np.ndarray:
+    """p_TC_T = R_IT^T R_IL p_LC_L: the chaser position (from the target's origin) in frame T.
+
+    The LVLH origin is the target's centre of mass, so the point is the same and only the frame
+    changes. Vectorised over a leading time axis; single samples work too.
+
+    Args:
+        q_IT: Target attitude in I, (w, x, y, z), shape (N, 4) or (4,); need not be unit.
+        q_IL: LVLH attitude in I, (w, x, y, z), shape (N, 4) or (4,); need not be unit.
+        p_LC_L: Chaser position in L [m], shape (N, 3) or (3,).
+
+    Returns:
+        p_TC_T [m], shape (N, 3) (or (3,) for single samples). Rows whose quaternion has zero or
+        non-finite norm are NaN.
+    """
+    q_IT = np.asarray(q_IT, dtype=float)
+    p_TC_I = _rotate(q_IL, np.asarray(p_LC_L, dtype=float))
+    q_TI = q_IT * np.array([1.0, -1.0, -1.0, -1.0])  # conjugate: R_TI = R_IT^T
+    return _rotate(q_TI, p_TC_I)
+
+
+# --------------------------------------------------------------------------------------------
+# Log access
+
+
+class _Log:
+    """The usable arrays of a log, as float arrays with a common first axis N."""
+
+    def __init__(self, log: Mapping[str, np.ndarray]):
+        self.arrays: dict[str, np.ndarray] = {}
+        raw = {}
+        for key, width in _SHAPES.items():
+            if key not in log:
+                continue
+            try:
+                a = np.asarray(log[key], dtype=float)
+            except (TypeError, ValueError):
+                _logger.warning("plots: log[%r] is not numeric; skipped", key)
+                continue
+            if width is None:
+                a = a.reshape(-1) if a.ndim == 2 and a.shape[1] == 1 else a
+                ok = a.ndim == 1
+            elif width == -1:
+                ok = a.ndim == 2 and a.shape[1] > 0
+            else:
+                ok = a.ndim == 2 and a.shape[1] == width
+            if not ok:
+                if a.size:  # an empty (N, 0) block is the normal "no thrusters", not worth a word
+                    _logger.warning("plots: log[%r] has shape %s; skipped", key, a.shape)
+                continue
+            raw[key] = a
+        t = raw.get("t")
+        self.n = len(t) if t is not None else (len(next(iter(raw.values()))) if raw else 0)
+        for key, a in raw.items():
+            if len(a) != self.n:
+                _logger.warning(
+                    "plots: log[%r] has %d samples, t has %d; skipped", key, len(a), self.n
+                )
+                continue
+            self.arrays[key] = a
+        if "t" in self.arrays:
+            self.t, self.t_label = self.arrays["t"], "t [s]"
+        else:
+            self.t, self.t_label = np.arange(self.n, dtype=float), "sample [-]"
+
+    def when(self, i: int) -> str:
+        """Sample i's time, for a label."""
+        return f"t = {self.t[i]:.6g} s" if "t" in self.arrays else f"sample {i}"
+
+    def get(self, key: str) -> np.ndarray | None:
+        return self.arrays.get(key)
+
+    def p_TC_T(self) -> np.ndarray | None:
+        if (p := self.get("p_TC_T")) is not None:
+            return p
+        q_IT, q_IL, p_LC_L = self.get("q_IT"), self.get("q_IL"), self.get("p_LC_L")
+        if q_IT is None or q_IL is None or p_LC_L is None:
+            return None
+        return chaser_in_target_frame(q_IT, q_IL, p_LC_L)
+
+
+# --------------------------------------------------------------------------------------------
+# Helpers
+
+
+def _title(title: str, what: str) -> str:
+    return f"{title} — {what}" if title else what
+
+
+def _has_finite(*arrays: np.ndarray | None) -> bool:
+    return any(a is not None and np.isfinite(a).any() for a in arrays)
+
+
+def _equal_aspect_3d(ax, points: np.ndarray) -> None:
+    """Equal scale on the three axes, centred on the finite points' bounding box."""
+    finite = points[np.isfinite(points).all(axis=1)]
+    if not len(finite):
+        return
+    lo, hi = finite.min(axis=0), finite.max(axis=0)
+    centre, half = 0.5 * (lo + hi), 0.5 * max(float((hi - lo).max()), 1e-9) * 1.05
+    ax.set_xlim(centre[0] - half, centre[0] + half)
+    ax.set_ylim(centre[1] - half, centre[1] + half)
+    ax.set_zlim(centre[2] - half, centre[2] + half)
+    ax.set_box_aspect((1.0, 1.0, 1.0))
+
+
+def _start_end(ax, a, b, c=None) -> None:
+    """Marks the first and last finite samples of a path (2-D or 3-D)."""
+    cols = (a, b) if c is None else (a, b, c)
+    finite = np.flatnonzero(np.all([np.isfinite(x) for x in cols], axis=0))
+    if not len(finite):
+        return
+    i0, i1 = finite[0], finite[-1]
+    ax.plot(*(x[i0 : i0 + 1] for x in cols), "o", color="tab:green", ms=7, label="start", zorder=5)
+    ax.plot(*(x[i1 : i1 + 1] for x in cols), "s", color="tab:red", ms=7, label="end", zorder=5)
+
+
+def _hold_points(hold: np.ndarray) -> np.ndarray:
+    """The distinct commanded hold points, in order (at most 20; else just the last)."""
+    finite = hold[np.isfinite(hold).all(axis=1)]
+    if not len(finite):
+        return finite
+    change = np.r_[True, np.any(np.diff(finite, axis=0) != 0.0, axis=1)]
+    distinct = finite[change]
+    return distinct if len(distinct) <= 20 else finite[-1:]
+
+
+def _envelope(t: np.ndarray, y: np.ndarray, buckets: int = MAX_LINE_BUCKETS):
+    """(t, y) of a dense series reduced to the min and max of each of `buckets` runs of samples,
+    in time order: the same picture at screen resolution, a fraction of the drawing time.
+
+    Args:
+        t: Times (N,).
+        y: Values (N,) or (N, m).
+
+    Returns:
+        (t_out, y_out), both shaped like y with at most 2 * buckets rows; per column times for a
+        2-D y. Series of at most 2 * buckets samples are returned as they are.
+    """
+    y2 = y.reshape(len(y), -1)
+    n = len(t)
+    if n <= 2 * buckets:
+        return np.broadcast_to(t[:, None], y2.shape).reshape(y.shape), y
+    k = -(-n // buckets)
+    pad = (-n) % k
+    yp = np.concatenate([y2, np.full((pad, y2.shape[1]), np.nan)]).reshape(-1, k, y2.shape[1])
+    tp = np.concatenate([t, np.full(pad, np.nan)]).reshape(-1, k)
+    nan = np.isnan(yp)
+    i_min = np.where(nan, np.inf, yp).argmin(axis=1)  # (B, m); an all-NaN bucket gives NaN below
+    i_max = np.where(nan, -np.inf, yp).argmax(axis=1)
+    i_first, i_last = np.minimum(i_min, i_max), np.maximum(i_min, i_max)
+    rows = np.arange(yp.shape[0])[:, None]
+    cols = np.arange(y2.shape[1])[None, :]
+    y_out = np.stack([yp[rows, i_first, cols], yp[rows, i_last, cols]], axis=1)
+    t_out = np.stack([tp[rows, i_first], tp[rows, i_last]], axis=1)
+    shape = (-1,) + y.shape[1:]
+    return t_out.reshape(shape), y_out.reshape(shape)
+
+
+def _time_edges(t: np.ndarray) -> np.ndarray:
+    """Edges of the hold intervals [t_i, t_{i+1}); the last one lasts as long as the one before."""
+    if len(t) == 1:
+        return np.array([t[0], t[0] + 1.0])
+    return np.r_[t, t[-1] + (t[-1] - t[-2])]
+
+
+def _block_mean(t: np.ndarray, a: np.ndarray, max_columns: int) -> tuple[np.ndarray, np.ndarray]:
+    """(time edges, values) of (N, n) samples averaged over blocks of k consecutive samples."""
+    edges = _time_edges(t)
+    k = max(1, -(-len(t) // max_columns))
+    if k == 1:
+        return edges, a
+    starts = np.arange(0, len(t), k)
+    with np.errstate(invalid="ignore"):
+        sums = np.add.reduceat(np.nan_to_num(a), starts, axis=0)
+        counts = np.add.reduceat(np.isfinite(a).astype(float), starts, axis=0)
+        means = np.where(counts > 0, sums / np.maximum(counts, 1.0), np.nan)
+    return np.r_[edges[starts], edges[-1]], means
+
+
+def _grid(fig, nrows, ncols, left=0.85, right=0.25, bottom=0.6, top=0.75, **kwargs):
+    """A GridSpec with margins given in inches (a fixed layout: constrained layout costs ~40 %
+    of the rendering time, and handles 3-D axes poorly)."""
+    width, height = fig.get_size_inches()
+    return fig.add_gridspec(
+        nrows,
+        ncols,
+        left=left / width,
+        right=1.0 - right / width,
+        bottom=bottom / height,
+        top=1.0 - top / height,
+        **kwargs,
+    )
+
+
+def _heatmap(fig, ax, cax, t_edges: np.ndarray, values: np.ndarray, label: str, cmap: str) -> None:
+    n = values.shape[1]
+    mesh = ax.pcolormesh(
+        t_edges,
+        np.arange(n + 1) - 0.5,
+        values.T,
+        cmap=cmap,
+        vmin=0.0,
+        vmax=1.0,
+        shading="flat",
+        rasterized=True,
+    )
+    ax.set_ylim(n - 0.5, -0.5)
+    ax.set_yticks(np.arange(n) if n <= 16 else np.linspace(0, n - 1, 9).round().astype(int))
+    ax.set_ylabel("thruster k")
+    fig.colorbar(mesh, cax=cax, label=label)
+
+
+# --------------------------------------------------------------------------------------------
+# Figures. Each returns a Figure, or None when there is nothing to draw.
+
+
+def _figure_trajectory_lvlh(log: _Log, title: str) -> Figure | None:
+    p = log.get("p_LC_L")
+    if not _has_finite(p):
+        return None
+    hold = log.get("hold_point_L")
+    holds = _hold_points(hold) if hold is not None else np.empty((0, 3))
+    x, y, z = p.T
+    fig = Figure(figsize=(16, 5.4), dpi=_DPI)
+    fig.suptitle(
+        _title(title, "Chaser in LVLH (L): x radial (R-bar), y along-track (V-bar), z orbit normal")
+    )
+    gs = _grid(
+        fig, 1, 3, right=0.1, bottom=0.55, top=0.65, wspace=0.25, width_ratios=(1.0, 1.0, 1.15)
+    )
+    ax_yx = fig.add_subplot(gs[0, 0])
+    ax_yz = fig.add_subplot(gs[0, 1])
+    ax_3d = fig.add_subplot(gs[0, 2], projection="3d")
+    for ax, (h, v), (hl, vl) in (
+        (ax_yx, (y, x), ("y along-track (V-bar) [m]", "x radial (R-bar) [m]")),
+        (ax_yz, (y, z), ("y along-track (V-bar) [m]", "z orbit normal [m]")),
+    ):
+        ax.plot(h, v, color="tab:blue", lw=1.0, label="chaser")
+        _start_end(ax, h, v)
+        ax.plot([0.0], [0.0], "*", color="k", ms=11, label="target", zorder=4)
+        if hold is not None:
+            i_h, i_v = (1, 0) if ax is ax_yx else (1, 2)
+            ax.plot(hold[:, i_h], hold[:, i_v], "--", color="tab:purple", lw=0.8)
+            if len(holds):
+                ax.plot(
+                    holds[:, i_h],
+                    holds[:, i_v],
+                    "X",
+                    color="tab:purple",
+                    ms=9,
+                    label="hold point",
+                    zorder=5,
+                )
+        ax.set_xlabel(hl)
+        ax.set_ylabel(vl)
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.grid(True, alpha=0.3)
+    ax_yx.set_title("y-x plane (in-plane)")
+    ax_yz.set_title("y-z plane (out-of-plane)")
+    ax_yx.legend(loc="best", fontsize=8)
+    ax_3d.plot(x, y, z, color="tab:blue", lw=1.0)
+    _start_end(ax_3d, x, y, z)
+    ax_3d.plot([0.0], [0.0], [0.0], "*", color="k", ms=11)
+    if len(holds):
+        ax_3d.plot(holds[:, 0], holds[:, 1], holds[:, 2], "X", color="tab:purple", ms=9)
+    _equal_aspect_3d(ax_3d, np.vstack([p, np.zeros((1, 3)), holds]))
+    ax_3d.set_xlabel("x radial [m]")
+    ax_3d.set_ylabel("y along-track [m]")
+    ax_3d.set_zlabel("z normal [m]")
+    ax_3d.set_title("3-D path in L")
+    return fig
+
+
+def _figure_trajectory_target_body(log: _Log, title: str) -> Figure | None:
+    p = log.p_TC_T()
+    if not _has_finite(p):
+        return None
+    t = log.t
+    fig = Figure(figsize=(15, 6.4), dpi=_DPI)
+    fig.suptitle(_title(title, "Chaser in the target body frame (T): p_TC_T = R_IT^T R_IL p_LC_L"))
+    gs = _grid(fig, 3, 2, right=0.1, top=0.65, hspace=0.12, wspace=0.12, width_ratios=(1.3, 1.0))
+    axes = [fig.add_subplot(gs[0, 0])]
+    axes += [fig.add_subplot(gs[i, 0], sharex=axes[0]) for i in (1, 2)]
+    for i, (ax, name) in enumerate(zip(axes, "xyz")):
+        ax.plot(t, p[:, i], color=_COMPONENT_COLOURS[i], lw=1.0)
+        ax.set_ylabel(f"p_TC_T {name} [m]")
+        ax.grid(True, alpha=0.3)
+        if i < 2:
+            ax.tick_params(labelbottom=False)
+    axes[0].set_title("components vs time (rotating with the target)")
+    axes[-1].set_xlabel(log.t_label)
+    ax_3d = fig.add_subplot(gs[:, 1], projection="3d")
+    ax_3d.plot(p[:, 0], p[:, 1], p[:, 2], color="tab:blue", lw=0.8)
+    _start_end(ax_3d, p[:, 0], p[:, 1], p[:, 2])
+    ax_3d.plot([0.0], [0.0], [0.0], "*", color="k", ms=11, label="target")
+    _equal_aspect_3d(ax_3d, np.vstack([p, np.zeros((1, 3))]))
+    ax_3d.set_xlabel("x_T [m]")
+    ax_3d.set_ylabel("y_T [m]")
+    ax_3d.set_zlabel("z_T [m]")
+    ax_3d.set_title("3-D path in T")
+    ax_3d.legend(loc="upper left", fontsize=8)
+    return fig
+
+
+def _figure_thrust(log: _Log, title: str) -> Figure | None:
+    wrench = log.get("body_wrench")
+    prop = log.get("propellant_kg")
+    panels = []
+    if _has_finite(wrench):
+        panels += [("force", wrench[:, 3:6]), ("torque", wrench[:, 0:3])]
+    if _has_finite(prop):
+        finite = prop[np.isfinite(prop)]
+        panels.append(("propellant", finite[0] - prop))
+    if not panels:
+        return None
+    t = log.t
+    fig = Figure(figsize=(12, 2.6 * len(panels) + 1.2), dpi=_DPI)
+    fig.suptitle(_title(title, "Chaser body wrench (in C) and propellant"))
+    gs = _grid(fig, len(panels), 1, hspace=0.3)
+    axes = []
+    for i, (kind, values) in enumerate(panels):
+        ax = fig.add_subplot(gs[i, 0], sharex=axes[0] if axes else None)
+        axes.append(ax)
+        if kind == "propellant":
+            ax.plot(t, values, color="tab:orange", lw=1.2)
+            ax.set_ylabel("propellant used [kg]")
+            ax.set_title(f"propellant used (total {np.nanmax(values):.4g} kg)", fontsize=10)
+        else:
+            symbol, unit = ("f", "N") if kind == "force" else ("τ", "N m")
+            t_env, y_env = _envelope(t, values)
+            for j, name in enumerate("xyz"):
+                ax.plot(
+                    t_env[:, j],
+                    y_env[:, j],
+                    color=_COMPONENT_COLOURS[j],
+                    lw=0.9,
+                    label=f"{symbol}_{name}",
+                )
+            ax.set_ylabel(f"{kind} in C [{unit}]")
+            ax.legend(loc="upper right", fontsize=8, ncol=3)
+        ax.grid(True, alpha=0.3)
+    for ax in axes[:-1]:
+        ax.tick_params(labelbottom=False)
+    axes[-1].set_xlabel(log.t_label)
+    return fig
+
+
+def _figure_duty(log: _Log, title: str) -> Figure | None:
+    duty = log.get("thruster_duty")
+    on = log.get("thruster_on")
+    duty = duty if _has_finite(duty) else None
+    on = on if _has_finite(on) else None
+    if duty is None and on is None:
+        return None
+    t = log.t
+    panels = [p for p in (("duty", duty), ("on", on)) if p[1] is not None]
+    fig = Figure(figsize=(12, 3.2 * len(panels) + 1.2), dpi=_DPI)
+    fig.suptitle(_title(title, "Thruster commands (thrusters K of the chaser)"))
+    # A narrow column for colour bars, so every panel keeps the same time axis.
+    gs = _grid(fig, len(panels), 2, right=0.9, hspace=0.3, wspace=0.02, width_ratios=(1.0, 0.015))
+    axes = []
+    for i, (kind, values) in enumerate(panels):
+        ax = fig.add_subplot(gs[i, 0], sharex=axes[0] if axes else None)
+        axes.append(ax)
+        n = values.shape[1]
+        if kind == "duty" and n <= MAX_DUTY_LINES:
+            t_env, y_env = _envelope(t, values)
+            for k in range(n):
+                ax.plot(t_env[:, k], y_env[:, k], lw=0.9, label=f"k={k}", drawstyle="steps-post")
+            ax.set_ylim(-0.05, 1.05)
+            ax.set_ylabel("duty cycle [-]")
+            ax.legend(loc="upper right", fontsize=8, ncol=min(n, 6))
+            ax.grid(True, alpha=0.3)
+        else:
+            edges, cells = _block_mean(t, values, MAX_HEATMAP_COLUMNS)
+            averaged = len(cells) < len(t)
+            if kind == "duty":
+                label = "mean duty [-]" if averaged else "duty [-]"
+                _heatmap(fig, ax, fig.add_subplot(gs[i, 1]), edges, cells, label, "viridis")
+            else:
+                label = "fraction on [-]" if averaged else "on (1) / off (0)"
+                _heatmap(fig, ax, fig.add_subplot(gs[i, 1]), edges, cells, label, "Greys")
+        ax.set_title(
+            f"duty cycle per thruster ({n} thrusters)"
+            if kind == "duty"
+            else f"on/off pattern (on-time fraction {np.nanmean(values):.2f})",
+            fontsize=10,
+        )
+    for ax in axes[:-1]:
+        ax.tick_params(labelbottom=False)
+    axes[-1].set_xlabel(log.t_label)
+    return fig
+
+
+def _figure_separation(log: _Log, title: str) -> Figure | None:
+    sep = log.get("separation_m")
+    p = log.get("p_LC_L")
+    rng = np.linalg.norm(p, axis=1) if p is not None else None
+    sep = sep if _has_finite(sep) else None
+    rng = rng if _has_finite(rng) else None
+    if sep is None and rng is None:
+        return None
+    t = log.t
+    fig = Figure(figsize=(12, 5.0), dpi=_DPI)
+    fig.suptitle(_title(title, "Separation and range between chaser and target"))
+    ax = fig.add_subplot(_grid(fig, 1, 1, top=0.5)[0, 0])
+    if rng is not None:
+        ax.plot(t, rng, color="tab:blue", lw=1.2, label="range |p_LC_L| (centre to centre)")
+    if sep is not None:
+        ax.plot(t, sep, color="tab:red", lw=1.2, label="separation (surface to surface)")
+        i_min = int(np.nanargmin(sep))
+        ax.plot(
+            t[i_min],
+            sep[i_min],
+            "v",
+            color="tab:red",
+            ms=8,
+            label=f"min separation {sep[i_min]:.3g} m at {log.when(i_min)}",
+        )
+    values = np.concatenate([a[np.isfinite(a)] for a in (sep, rng) if a is not None])
+    lo, hi = values.min(), values.max()
+    if lo > 0.0 and hi / lo >= 100.0:
+        ax.set_yscale("log")
+    elif lo <= 0.0:
+        ax.axhline(0.0, color="k", lw=0.8, ls=":")
+        # Contact or penetration: linear near zero, logarithmic above, when the run spans decades.
+        linthresh = max(-lo, 1e-4 * hi, 1e-9)
+        if hi / linthresh >= 100.0:
+            ax.set_yscale("symlog", linthresh=linthresh)
+            ax.set_ylim(2.0 * min(lo, -linthresh), 2.0 * hi)
+    ax.set_xlabel(log.t_label)
+    ax.set_ylabel("distance [m]")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(loc="best", fontsize=9)
+    return fig
+
+
+_FIGURES: dict[str, Callable[[_Log, str], Figure | None]] = {
+    "trajectory_lvlh.png": _figure_trajectory_lvlh,
+    "trajectory_target_body.png": _figure_trajectory_target_body,
+    "thrust.png": _figure_thrust,
+    "duty.png": _figure_duty,
+    "separation.png": _figure_separation,
+}
+assert tuple(_FIGURES) == FIGURE_NAMES
+
+
+# --------------------------------------------------------------------------------------------
+# Writing
+
+
+def _save_atomic(fig: Figure, path: Path) -> None:
+    """Renders fig as PNG to a temporary file beside path, then renames it over path."""
+    FigureCanvasAgg(fig)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
+    try:
+        with open(tmp, "xb") as f:
+            fig.savefig(f, format="png", dpi=_DPI)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def write_plots(log: Mapping[str, np.ndarray], out_dir: Path, title: str = "") -> list[Path]:
+    """Writes the PNG figures of a run's log into out_dir (created if needed).
+
+    Args:
+        log: Time series keyed by name, time as the first axis (a dict, or an `np.load`ed npz):
+            t (N) [s], p_LC_L (N, 3) [m], q_IT and q_IL (N, 4) (w, x, y, z), thruster_duty and
+            thruster_on (N, n), body_wrench (N, 6) [N m, N] (torque then force, in C),
+            propellant_kg (N), separation_m (N), optional hold_point_L (N, 3) and p_TC_T (N, 3).
+            Any key may be missing; what cannot be drawn is skipped.
+        out_dir: Output folder, e.g. runs/<scenario>/plots.
+        title: Prefix of every figure's title, e.g. the scenario name.
+
+    Returns:
+        The paths written, in `FIGURE_NAMES` order (figures without data are not written).
+    """
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    data = _Log(log)
+    written = []
+    for name, make in _FIGURES.items():
+        path = out_dir / name
+        try:
+            fig = make(data, title) if data.n else None
+            if fig is None:
+                path.unlink(missing_ok=True)  # no stale figure from an earlier run
+                continue
+            _save_atomic(fig, path)
+            written.append(path)
+        except Exception:  # a side output: never lose the others (see the module docstring)
+            _logger.warning("plots: could not draw %s", name, exc_info=True)
+            path.unlink(missing_ok=True)
+    return written

@@ -1,0 +1,298 @@
+"""The `Scenario` dataclass: everything a run needs, loadable from YAML by hand.
+
+Owns: the scenario schema (composing the configs that live beside their systems), its defaults
+(every field has one that makes a scenario run) and its semantic validation, which raises
+`ScenarioError` naming the field. Reading files and reporting errors to the user is
+rpod.scenarios' job.
+
+Units are SI; a field whose name ends in `_deg` or `_deg_s` is in degrees (per second).
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+
+from rpod.models.gravity import GRAVITY_MODELS, MIN_ALTITUDE_M
+from rpod.models.rigid_body import validate_inertia
+from rpod.systems.hold_point_controller import HoldPointControllerConfig
+from rpod.systems.orbital_dynamics import OrbitConfig
+
+THRUSTER_LAYOUTS = ("rcs_cube_12", "planar_8", "gimbaled_cuboid_8")
+CONTROLLERS = ("hold_point", "none")
+INTEGRATION_SCHEMES = ("runge_kutta2", "runge_kutta3", "runge_kutta5", "bogacki_shampine3")
+
+
+class ScenarioError(ValueError):
+    """A scenario field is invalid; `field` is its dotted path (e.g. 'target.inertia_kg_m2')."""
+
+    def __init__(self, field: str, message: str):
+        super().__init__(f"{field}: {message}")
+        self.field = field
+        self.message = message
+
+
+def _diag(values):
+    return lambda: [[values[0], 0.0, 0.0], [0.0, values[1], 0.0], [0.0, 0.0, values[2]]]
+
+
+@dataclasses.dataclass
+class ChaserConfig:
+    """The chaser spacecraft and its initial state relative to the target.
+
+    Args:
+        p_LC_L: initial position of the chaser's centre of mass in LVLH [m].
+        v_LC_L: initial velocity seen in the rotating LVLH frame [m/s].
+        rpy_LC_deg: initial attitude relative to LVLH, roll-pitch-yaw [deg].
+        w_IC_C_deg_s: initial angular velocity in the chaser body frame [deg/s].
+        mass_kg: wet mass at t = 0 (the truth draws propellant from it).
+        inertia_kg_m2: inertia about the centre of mass in C (constant) [kg m^2].
+        size_m: box edge lengths along the C axes, for the separation check and the scene [m].
+        capture_point_C: the chaser's capture point (e.g. its docking mechanism) in C [m].
+    """
+
+    p_LC_L: list[float] = dataclasses.field(default_factory=lambda: [0.0, -30.0, 0.0])
+    v_LC_L: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    rpy_LC_deg: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    w_IC_C_deg_s: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    mass_kg: float = 500.0
+    inertia_kg_m2: list[list[float]] = dataclasses.field(default_factory=_diag([190, 190, 190]))
+    size_m: list[float] = dataclasses.field(default_factory=lambda: [1.5, 1.5, 1.5])
+    capture_point_C: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.75])
+
+
+@dataclasses.dataclass
+class TargetConfig:
+    """The tumbling target (torque-free rigid body at the LVLH origin).
+
+    Args:
+        q_LT: initial attitude relative to LVLH as a quaternion (w, x, y, z); when empty,
+            rpy_LT_deg is used.
+        rpy_LT_deg: initial attitude relative to LVLH, roll-pitch-yaw [deg].
+        w_IT_T_deg_s: initial angular velocity in the target body frame [deg/s].
+        inertia_kg_m2: inertia about the centre of mass in T; any symmetric positive-definite
+            matrix that satisfies the triangle inequality (non-diagonal allowed) [kg m^2].
+        size_m: box edge lengths along the T axes [m].
+        docking_port_T: the target's capture point in T [m].
+        docking_axis_T: the docking axis in T (normalised on use).
+        corridor_half_angle_deg: half-angle of the approach corridor about the docking axis.
+    """
+
+    q_LT: list[float] = dataclasses.field(default_factory=list)
+    rpy_LT_deg: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    w_IT_T_deg_s: list[float] = dataclasses.field(default_factory=lambda: [0.5, 0.0, 1.0])
+    inertia_kg_m2: list[list[float]] = dataclasses.field(
+        default_factory=lambda: [[1200.0, 50.0, -30.0], [50.0, 1000.0, 20.0], [-30.0, 20.0, 800.0]]
+    )
+    size_m: list[float] = dataclasses.field(default_factory=lambda: [2.0, 2.0, 2.0])
+    docking_port_T: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 1.0])
+    docking_axis_T: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 1.0])
+    corridor_half_angle_deg: float = 30.0
+
+
+@dataclasses.dataclass
+class ThrustersConfig:
+    """The chaser's thruster bank and its modulation.
+
+    Args:
+        enabled: False runs without thrusters (a coasting chaser).
+        layout: preset name, one of rcs_cube_12, planar_8, gimbaled_cuboid_8.
+        max_thrust_N: thrust of one thruster when on (or its magnitude limit when gimbaled).
+        isp_s: specific impulse of every thruster.
+        size_m: edge length of the cube (rcs_cube_12, planar_8) the thrusters sit on [m].
+        pwm: True drives the thrusters on/off through PWM; False applies duty as throttle.
+        subdivisions: PWM slots per control period (paper 003 Sec. IV-B).
+        min_on_slots: minimum pulse length in slots (0: none).
+    """
+
+    enabled: bool = True
+    layout: str = "rcs_cube_12"
+    max_thrust_N: float = 10.0
+    isp_s: float = 220.0
+    size_m: float = 1.5
+    pwm: bool = True
+    subdivisions: int = 10
+    min_on_slots: int = 0
+
+
+@dataclasses.dataclass
+class ControllerConfig:
+    """Which controller flies the chaser.
+
+    Args:
+        type: 'hold_point' (track the hold point on the docking axis) or 'none' (coast).
+        hold_point: gains and geometry of the hold-point law.
+    """
+
+    type: str = "hold_point"
+    hold_point: HoldPointControllerConfig = dataclasses.field(
+        default_factory=HoldPointControllerConfig
+    )
+
+
+@dataclasses.dataclass
+class IntegratorConfig:
+    """Numerical integration of the continuous truth.
+
+    Args:
+        scheme: Drake integration scheme; runge_kutta3 suits PWM (steps end at every slot
+            anyway), runge_kutta5 suits long coasts (far fewer steps at the same accuracy).
+        accuracy: target accuracy of the error-controlled step.
+        max_step_s: upper bound on the step size [s].
+    """
+
+    scheme: str = "runge_kutta3"
+    accuracy: float = 1e-6
+    max_step_s: float = 10.0
+
+
+@dataclasses.dataclass
+class VisualizationConfig:
+    """How the Meshcat scene is drawn and recorded (geometry comes from chaser and target).
+
+    Args:
+        publish_period_s: scene update period in simulated time [s].
+        trail: draw the chaser's trail.
+        trail_max_points: trail markers kept (older ones are reused).
+        camera_position_L_m: camera position in LVLH, looking at the target [m].
+    """
+
+    publish_period_s: float = 0.5
+    trail: bool = True
+    trail_max_points: int = 400
+    camera_position_L_m: list[float] = dataclasses.field(default_factory=lambda: [25.0, -40.0, 18.0])
+
+
+@dataclasses.dataclass
+class Scenario:
+    """A complete rpod run: orbit, bodies, actuators, controller, duration, logging.
+
+    Args:
+        description: one line shown by `rpod list`.
+        orbit: the target's orbit and the truth gravity model.
+        chaser: the chaser and its initial relative state.
+        target: the tumbling target.
+        thrusters: the chaser's thrusters and PWM.
+        controller: the guidance/control law.
+        duration_s: simulated time [s].
+        log_period_s: sample period of every logged signal [s].
+        integrator: numerical integration settings.
+        visualization: Meshcat scene and recording settings.
+    """
+
+    description: str = ""
+    orbit: OrbitConfig = dataclasses.field(default_factory=OrbitConfig)
+    chaser: ChaserConfig = dataclasses.field(default_factory=ChaserConfig)
+    target: TargetConfig = dataclasses.field(default_factory=TargetConfig)
+    thrusters: ThrustersConfig = dataclasses.field(default_factory=ThrustersConfig)
+    controller: ControllerConfig = dataclasses.field(default_factory=ControllerConfig)
+    duration_s: float = 600.0
+    log_period_s: float = 1.0
+    integrator: IntegratorConfig = dataclasses.field(default_factory=IntegratorConfig)
+    visualization: VisualizationConfig = dataclasses.field(default_factory=VisualizationConfig)
+
+
+def _require(condition: bool, field: str, message: str) -> None:
+    if not condition:
+        raise ScenarioError(field, message)
+
+
+def _vector(values, field: str, size: int = 3, nonzero: bool = False) -> np.ndarray:
+    array = np.asarray(values, dtype=float)
+    _require(array.shape == (size,), field, f"expected {size} numbers, got {len(values)}")
+    _require(bool(np.all(np.isfinite(array))), field, "must be finite")
+    if nonzero:
+        _require(float(np.linalg.norm(array)) > 1e-12, field, "must not be the zero vector")
+    return array
+
+
+def _positive(value: float, field: str) -> None:
+    _require(math.isfinite(value) and value > 0, field, f"must be positive, got {value}")
+
+
+def _inertia(values, field: str) -> None:
+    _require(
+        len(values) == 3 and all(len(row) == 3 for row in values), field, "expected a 3x3 matrix"
+    )
+    try:
+        validate_inertia(np.asarray(values, dtype=float))
+    except ValueError as error:
+        raise ScenarioError(field, str(error)) from None
+
+
+def validate_scenario(scenario: Scenario) -> None:
+    """Raises ScenarioError naming the first invalid field of the scenario."""
+    orbit = scenario.orbit
+    _require(orbit.gravity in GRAVITY_MODELS, "orbit.gravity", f"must be one of {GRAVITY_MODELS}")
+    _require(
+        orbit.altitude_m >= MIN_ALTITUDE_M,
+        "orbit.altitude_m",
+        f"must be at least {MIN_ALTITUDE_M:.0f} m, got {orbit.altitude_m}",
+    )
+    for name in ("inclination_deg", "raan_deg", "arg_latitude_deg"):
+        _require(math.isfinite(getattr(orbit, name)), f"orbit.{name}", "must be finite")
+
+    chaser = scenario.chaser
+    _vector(chaser.p_LC_L, "chaser.p_LC_L")
+    _vector(chaser.v_LC_L, "chaser.v_LC_L")
+    _vector(chaser.rpy_LC_deg, "chaser.rpy_LC_deg")
+    _vector(chaser.w_IC_C_deg_s, "chaser.w_IC_C_deg_s")
+    _positive(chaser.mass_kg, "chaser.mass_kg")
+    _inertia(chaser.inertia_kg_m2, "chaser.inertia_kg_m2")
+    _require(bool(np.all(_vector(chaser.size_m, "chaser.size_m") > 0)), "chaser.size_m",
+             "edge lengths must be positive")
+    _vector(chaser.capture_point_C, "chaser.capture_point_C")
+
+    target = scenario.target
+    if target.q_LT:
+        _vector(target.q_LT, "target.q_LT", size=4, nonzero=True)
+    _vector(target.rpy_LT_deg, "target.rpy_LT_deg")
+    _vector(target.w_IT_T_deg_s, "target.w_IT_T_deg_s")
+    _inertia(target.inertia_kg_m2, "target.inertia_kg_m2")
+    _require(bool(np.all(_vector(target.size_m, "target.size_m") > 0)), "target.size_m",
+             "edge lengths must be positive")
+    _vector(target.docking_port_T, "target.docking_port_T")
+    _vector(target.docking_axis_T, "target.docking_axis_T", nonzero=True)
+    _require(
+        0.0 < target.corridor_half_angle_deg < 90.0,
+        "target.corridor_half_angle_deg",
+        f"must be in (0, 90) deg, got {target.corridor_half_angle_deg}",
+    )
+
+    thrusters = scenario.thrusters
+    if thrusters.enabled:
+        _require(thrusters.layout in THRUSTER_LAYOUTS, "thrusters.layout",
+                 f"must be one of {THRUSTER_LAYOUTS}, got '{thrusters.layout}'")
+        _require(thrusters.layout != "gimbaled_cuboid_8", "thrusters.layout",
+                 "gimbaled_cuboid_8 needs a force-vector controller (the NMPC of paper 001); "
+                 "the hold-point allocator drives fixed thrusters only")
+        _positive(thrusters.max_thrust_N, "thrusters.max_thrust_N")
+        _positive(thrusters.isp_s, "thrusters.isp_s")
+        _positive(thrusters.size_m, "thrusters.size_m")
+        _require(thrusters.subdivisions >= 1, "thrusters.subdivisions", "must be at least 1")
+        _require(0 <= thrusters.min_on_slots <= thrusters.subdivisions, "thrusters.min_on_slots",
+                 "must be between 0 and subdivisions")
+
+    controller = scenario.controller
+    _require(controller.type in CONTROLLERS, "controller.type", f"must be one of {CONTROLLERS}")
+    if controller.type == "hold_point":
+        _require(thrusters.enabled, "thrusters.enabled", "the hold_point controller needs thrusters")
+        gains = controller.hold_point
+        prefix = "controller.hold_point."
+        for name in ("control_period_s", "translation_bandwidth_rad_s", "translation_damping",
+                     "max_speed_m_s", "attitude_bandwidth_rad_s", "attitude_damping",
+                     "descent_gate_deg", "max_reference_step_deg"):
+            _positive(getattr(gains, name), prefix + name)
+        _require(gains.hold_distance_m >= 0, prefix + "hold_distance_m", "must not be negative")
+        _vector(gains.capture_axis_C, prefix + "capture_axis_C", nonzero=True)
+
+    _positive(scenario.duration_s, "duration_s")
+    _positive(scenario.log_period_s, "log_period_s")
+    integrator = scenario.integrator
+    _require(integrator.scheme in INTEGRATION_SCHEMES, "integrator.scheme",
+             f"must be one of {INTEGRATION_SCHEMES}")
+    _positive(integrator.accuracy, "integrator.accuracy")
+    _positive(integrator.max_step_s, "integrator.max_step_s")
+    _positive(scenario.visualization.publish_period_s, "visualization.publish_period_s")
+    _require(scenario.visualization.trail_max_points >= 1, "visualization.trail_max_points",
+             "must be at least 1")

@@ -1,0 +1,213 @@
+"""Hold-point controller: track a point on the target's rotating docking axis, face the target.
+
+Owns: `HoldPointControllerConfig` and `HoldPointController`, a discrete-time (sampled) law that
+turns the relative state and both attitudes into a desired chaser body wrench [tau_C; f_C].
+Does not own: allocation to thrusters (allocator.py) or pulse modulation (pwm.py).
+
+Translation (paper 004 Sec. 7, paper 003 eqs. 12-13). The hold point H sits on the target's
+docking axis, `hold_distance_m` beyond the docking port: p_TH_T = p_TD_T + d * a_T, so in L it
+turns with the target, p_LH_L = R_LT p_TH_T. The reference R moves towards H along the sphere of
+the chaser's current range, at most `max_reference_step_deg` ahead of the chaser's line of sight
+(so the chord to it never cuts through the target), and descends to the hold range once the line
+of sight is within `descent_gate_deg` of the docking axis. The law is a velocity-limited PD in L
+with the CW gravity-gradient/Coriolis terms cancelled (paper 004 eq. 12) and the centripetal
+acceleration of the co-rotating reference fed forward:
+    v_des = v_R + sat(w_n / (2 zeta) (p_R - p), v_max)
+    a     = 2 zeta w_n (v_des - v) + w_LT x (w_LT x p_R) - a_CW(p, v)
+and the force is rotated into the chaser body frame, f_C = m R_CL a   (paper 003 eq. 13).
+
+Attitude. The capture axis c_C points at the target's centre of mass; roll about it follows the
+target's x axis, so that at the hold point the chaser is synchronised with the tumble. The
+desired angular velocity is the finite difference of the desired attitude over one period, and
+    tau_C = J (w_n^2 e_R + 2 zeta w_n (w_des - w)) + w x J w,
+with e_R the rotation vector of R_CCdes.
+
+The output is held between samples (discrete state) so that the allocator and the thruster bank
+downstream are evaluated once per control period, not at every integrator stage.
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+from pydrake.common.value import Value
+from pydrake.math import RotationMatrix
+from pydrake.systems.framework import LeafSystem
+
+from rpod.models.frames import rotation_from_wxyz
+
+
+@dataclasses.dataclass
+class HoldPointControllerConfig:
+    """Gains and geometry of the hold-point controller.
+
+    Args:
+        control_period_s: sample period of the law (the PWM period downstream).
+        hold_distance_m: distance of the hold point beyond the docking port, along the axis.
+        translation_bandwidth_rad_s: natural frequency w_n of the position loop.
+        translation_damping: damping ratio zeta of the position loop.
+        max_speed_m_s: limit on the commanded speed relative to the reference.
+        attitude_bandwidth_rad_s: natural frequency of the attitude loop.
+        attitude_damping: damping ratio of the attitude loop.
+        descent_gate_deg: the reference descends to the hold range only within this angle of
+            the docking axis; outside, it moves around the target at the chaser's range.
+        max_reference_step_deg: how far ahead of the chaser's line of sight the reference may be.
+        capture_axis_C: unit capture axis in the chaser body frame (points at the target).
+    """
+
+    control_period_s: float = 0.1
+    hold_distance_m: float = 10.0
+    translation_bandwidth_rad_s: float = 0.15
+    translation_damping: float = 1.0
+    max_speed_m_s: float = 0.5
+    attitude_bandwidth_rad_s: float = 0.5
+    attitude_damping: float = 1.0
+    descent_gate_deg: float = 10.0
+    max_reference_step_deg: float = 20.0
+    capture_axis_C: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 1.0])
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.linalg.norm(v)
+
+
+def _rotate_towards(u_from: np.ndarray, u_to: np.ndarray, max_angle: float) -> np.ndarray:
+    """The unit vector at most max_angle from u_from on the great circle towards u_to."""
+    angle = math.acos(float(np.clip(u_from @ u_to, -1.0, 1.0)))
+    if angle <= max_angle:
+        return u_to
+    axis = np.cross(u_from, u_to)
+    if np.linalg.norm(axis) < 1e-9:  # antiparallel: any perpendicular axis will do
+        axis = np.cross(u_from, [1.0, 0.0, 0.0] if abs(u_from[0]) < 0.9 else [0.0, 1.0, 0.0])
+    axis = _unit(axis)
+    c, s = math.cos(max_angle), math.sin(max_angle)
+    return c * u_from + s * np.cross(axis, u_from)
+
+
+def _pointing_rotation(z_axis: np.ndarray, x_hint: np.ndarray, fallback: np.ndarray) -> np.ndarray:
+    """Rotation whose z column is z_axis and whose x column is x_hint made orthogonal to it."""
+    x = x_hint - (x_hint @ z_axis) * z_axis
+    if np.linalg.norm(x) < 1e-6:  # the hint is (anti)parallel to the axis: use the fallback
+        x = fallback - (fallback @ z_axis) * z_axis
+    x = _unit(x)
+    return np.column_stack((x, np.cross(z_axis, x), z_axis))
+
+
+def cw_acceleration(n: float, p_L: np.ndarray, v_L: np.ndarray) -> np.ndarray:
+    """The unforced CW acceleration in L (paper 004 eq. 4); the hold law cancels it (eq. 12)."""
+    return np.array([3 * n * n * p_L[0] + 2 * n * v_L[1], -2 * n * v_L[0], -n * n * p_L[2]])
+
+
+class HoldPointController(LeafSystem):
+    """Sampled hold-point law (module docstring), output held between samples.
+
+    Input ports: relative_state_L (6), q_IL (4), w_IL_L (3), target_attitude (7),
+        chaser_attitude (7).
+    Output ports: body_wrench_desired (6, [tau_C; f_C]), hold_point_L (3), reference_L (3).
+    """
+
+    def __init__(
+        self,
+        config: HoldPointControllerConfig,
+        chaser_mass_kg: float,
+        chaser_inertia: np.ndarray,
+        docking_port_T: np.ndarray,
+        docking_axis_T: np.ndarray,
+    ):
+        super().__init__()
+        self._config = config
+        self._mass = chaser_mass_kg
+        self._J = np.asarray(chaser_inertia, dtype=float)
+        self._p_TH_T = np.asarray(docking_port_T, float) + config.hold_distance_m * _unit(
+            np.asarray(docking_axis_T, float)
+        )
+        # R_CK: a fixed frame K in C whose z axis is the capture axis; the law points K.
+        capture_C = _unit(np.asarray(config.capture_axis_C, float))
+        self._R_CK = _pointing_rotation(capture_C, np.array([1.0, 0.0, 0.0]), np.eye(3)[1])
+
+        self._relative_port = self.DeclareVectorInputPort("relative_state_L", 6)
+        self._q_IL_port = self.DeclareVectorInputPort("q_IL", 4)
+        self._w_IL_L_port = self.DeclareVectorInputPort("w_IL_L", 3)
+        self._target_port = self.DeclareVectorInputPort("target_attitude", 7)
+        self._chaser_port = self.DeclareVectorInputPort("chaser_attitude", 7)
+
+        # Discrete state: [wrench (6), hold point (3), reference (3)]; abstract: last R_IKdes.
+        self._output_state = self.DeclareDiscreteState(12)
+        self._previous_desired = self.DeclareAbstractState(Value(np.zeros(0)))
+        self.DeclarePeriodicUnrestrictedUpdateEvent(config.control_period_s, 0.0, self._update)
+        xd = {self.discrete_state_ticket(self._output_state)}
+        self.DeclareVectorOutputPort(
+            "body_wrench_desired", 6, lambda c, o: o.SetFromVector(self._held(c)[0:6]), xd
+        )
+        self.DeclareVectorOutputPort(
+            "hold_point_L", 3, lambda c, o: o.SetFromVector(self._held(c)[6:9]), xd
+        )
+        self.DeclareVectorOutputPort(
+            "reference_L", 3, lambda c, o: o.SetFromVector(self._held(c)[9:12]), xd
+        )
+
+    def _held(self, context) -> np.ndarray:
+        return context.get_discrete_state(self._output_state).get_value()
+
+    def _update(self, context, state):
+        cfg = self._config
+        relative = self._relative_port.Eval(context)
+        p, v = relative[0:3], relative[3:6]
+        R_IL = rotation_from_wxyz(self._q_IL_port.Eval(context))
+        w_IL_L = self._w_IL_L_port.Eval(context)
+        target = self._target_port.Eval(context)
+        chaser = self._chaser_port.Eval(context)
+        R_IT = rotation_from_wxyz(target[0:4])
+        R_LT = R_IL.T @ R_IT
+        w_IT_L = R_LT @ target[4:7]
+        w_LT_L = w_IT_L - w_IL_L  # target rate seen from the rotating LVLH frame
+
+        # Reference on the rotating docking axis (module docstring).
+        p_H = R_LT @ self._p_TH_T
+        range_H, range_C = np.linalg.norm(p_H), max(np.linalg.norm(p), 1e-9)
+        u_C, u_H = p / range_C, p_H / range_H
+        off_axis = math.acos(float(np.clip(u_C @ u_H, -1.0, 1.0)))
+        gate = math.radians(cfg.descent_gate_deg)
+        blend = min(max((off_axis - gate) / gate, 0.0), 1.0)  # 0 inside the gate, 1 beyond 2x
+        range_R = range_H + blend * max(range_C - range_H, 0.0)
+        p_R = range_R * _rotate_towards(u_C, u_H, math.radians(cfg.max_reference_step_deg))
+        v_R = np.cross(w_LT_L, p_R)
+
+        # Velocity-limited PD with CW and centripetal feed-forward (paper 004 eq. 12).
+        w_n, zeta = cfg.translation_bandwidth_rad_s, cfg.translation_damping
+        v_correction = w_n / (2 * zeta) * (p_R - p)
+        speed = np.linalg.norm(v_correction)
+        if speed > cfg.max_speed_m_s:
+            v_correction *= cfg.max_speed_m_s / speed
+        n = w_IL_L[2]
+        a_L = (
+            2 * zeta * w_n * (v_R + v_correction - v)
+            + np.cross(w_LT_L, np.cross(w_LT_L, p_R))
+            - cw_acceleration(n, p, v)
+        )
+        R_IC = rotation_from_wxyz(chaser[0:4])
+        w_IC_C = chaser[4:7]
+        f_C = self._mass * (R_IC.T @ (R_IL @ a_L))  # paper 003 eq. 13
+
+        # Attitude: capture axis at the target, roll following the target's x axis.
+        R_IKdes = _pointing_rotation(-(R_IL @ u_C), R_IT[:, 0], R_IT[:, 1])
+        R_ICdes = R_IKdes @ self._R_CK.T
+        previous = context.get_abstract_state(self._previous_desired).get_value()
+        w_des_C = np.zeros(3)
+        if previous.size:
+            dR = RotationMatrix(previous.T @ R_ICdes).ToAngleAxis()
+            w_des_Cdes = dR.axis() * dR.angle() / cfg.control_period_s
+            w_des_C = R_IC.T @ R_ICdes @ w_des_Cdes
+        error = RotationMatrix(R_IC.T @ R_ICdes).ToAngleAxis()
+        e_C = error.axis() * error.angle()
+        w_a, zeta_a = cfg.attitude_bandwidth_rad_s, cfg.attitude_damping
+        J = self._J
+        tau_C = J @ (w_a * w_a * e_C + 2 * zeta_a * w_a * (w_des_C - w_IC_C)) + np.cross(
+            w_IC_C, J @ w_IC_C
+        )
+
+        state.get_mutable_discrete_state(self._output_state).set_value(
+            np.concatenate([tau_C, f_C, p_H, p_R])
+        )
+        state.get_mutable_abstract_state(self._previous_desired).set_value(R_ICdes)
+

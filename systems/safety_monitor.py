@@ -1,0 +1,89 @@
+"""Safety monitor: body separation, LOS-corridor violation, relative speed at the capture points.
+
+Owns: `SafetyMonitor`, a feedthrough system with no state, read by loggers (so its outputs are
+computed only at log samples, never inside the integrator).
+Does not own: the shapes (rpod.models.shapes) or any reaction to a violation.
+
+Definitions.
+- separation_m: Euclidean distance between the true convex shapes of chaser and target
+  (0 when they touch or overlap), rpod.models.shapes.separation_distance.
+- corridor_violation_rad: angle between the docking axis a_T and the line from the docking port
+  D to the chaser's capture point E, minus the corridor half-angle; <= 0 inside the corridor
+  (the LOS cone of papers 001 eq. 18 and 004, taken here as a circular cone).
+- capture_speed_m_s: |v_E - v_D|, the inertial relative speed of the two capture points,
+  v_E = v_C + w_IC x r_CE, v_D = v_T + w_IT x r_TD.
+"""
+
+import math
+
+import numpy as np
+from pydrake.systems.framework import LeafSystem
+
+from rpod.models.frames import lvlh_to_inertial, rotation_from_wxyz
+from rpod.models.shapes import ConvexPolytope, separation_distance
+
+
+class SafetyMonitor(LeafSystem):
+    """Monitors separation, corridor and capture-point speed (see the module docstring).
+
+    Input ports: relative_state_L (6), q_IL (4), w_IL_L (3), target_attitude (7),
+        chaser_attitude (7).
+    Output ports: separation_m (1), corridor_violation_rad (1), capture_speed_m_s (1).
+    """
+
+    def __init__(
+        self,
+        target_shape: ConvexPolytope,
+        chaser_shape: ConvexPolytope,
+        docking_port_T,
+        docking_axis_T,
+        corridor_half_angle_rad: float,
+        capture_point_C,
+    ):
+        super().__init__()
+        self._target_shape = target_shape
+        self._chaser_shape = chaser_shape
+        self._p_TD_T = np.asarray(docking_port_T, float)
+        self._a_T = np.asarray(docking_axis_T, float) / np.linalg.norm(docking_axis_T)
+        self._half_angle = corridor_half_angle_rad
+        self._p_CE_C = np.asarray(capture_point_C, float)
+        self._relative_port = self.DeclareVectorInputPort("relative_state_L", 6)
+        self._q_IL_port = self.DeclareVectorInputPort("q_IL", 4)
+        self._w_IL_L_port = self.DeclareVectorInputPort("w_IL_L", 3)
+        self._target_port = self.DeclareVectorInputPort("target_attitude", 7)
+        self._chaser_port = self.DeclareVectorInputPort("chaser_attitude", 7)
+        self.DeclareVectorOutputPort("separation_m", 1, self._calc_separation)
+        self.DeclareVectorOutputPort("corridor_violation_rad", 1, self._calc_corridor)
+        self.DeclareVectorOutputPort("capture_speed_m_s", 1, self._calc_capture_speed)
+
+    def _poses(self, context):
+        """(R_LT, R_LC, p_LC_L, v_LC_L, R_IL, w_IL_L, target, chaser) at this context."""
+        relative = self._relative_port.Eval(context)
+        R_IL = rotation_from_wxyz(self._q_IL_port.Eval(context))
+        target = self._target_port.Eval(context)
+        chaser = self._chaser_port.Eval(context)
+        R_LT = R_IL.T @ rotation_from_wxyz(target[0:4])
+        R_LC = R_IL.T @ rotation_from_wxyz(chaser[0:4])
+        w_IL_L = self._w_IL_L_port.Eval(context)
+        return R_LT, R_LC, relative[0:3], relative[3:6], R_IL, w_IL_L, target, chaser
+
+    def _calc_separation(self, context, output):
+        R_LT, R_LC, p_LC_L, *_ = self._poses(context)
+        distance = separation_distance(
+            self._target_shape, R_LT, np.zeros(3), self._chaser_shape, R_LC, p_LC_L
+        )
+        output.SetAtIndex(0, distance)
+
+    def _calc_corridor(self, context, output):
+        R_LT, R_LC, p_LC_L, *_ = self._poses(context)
+        p_DE_L = p_LC_L + R_LC @ self._p_CE_C - R_LT @ self._p_TD_T
+        cos_angle = (R_LT @ self._a_T) @ p_DE_L / max(np.linalg.norm(p_DE_L), 1e-12)
+        output.SetAtIndex(0, math.acos(float(np.clip(cos_angle, -1, 1))) - self._half_angle)
+
+    def _calc_capture_speed(self, context, output):
+        R_LT, R_LC, p_LC_L, v_LC_L, R_IL, w_IL_L, target, chaser = self._poses(context)
+        _, v_TC_I = lvlh_to_inertial(R_IL, w_IL_L, p_LC_L, v_LC_L)
+        R_IT, R_IC = R_IL @ R_LT, R_IL @ R_LC
+        v_E = v_TC_I + R_IC @ np.cross(chaser[4:7], self._p_CE_C)
+        v_D = R_IT @ np.cross(target[4:7], self._p_TD_T)
+        output.SetAtIndex(0, float(np.linalg.norm(v_E - v_D)))
