@@ -135,6 +135,7 @@ class HoldPointController(LeafSystem):
         self._output_state = self.DeclareDiscreteState(12)
         self._previous_desired = self.DeclareAbstractState(Value(np.zeros(0)))
         self.DeclarePeriodicUnrestrictedUpdateEvent(config.control_period_s, 0.0, self._update)
+        self.DeclareInitializationUnrestrictedUpdateEvent(self._update)  # valid output at t=0
         xd = {self.discrete_state_ticket(self._output_state)}
         self.DeclareVectorOutputPort(
             "body_wrench_desired", 6, lambda c, o: o.SetFromVector(self._held(c)[0:6]), xd
