@@ -66,11 +66,18 @@ def real_time_factors(repeat: int) -> list[tuple]:
     for name, scenario in cases:
         summaries = [simulate(scenario).summary for _ in range(repeat)]
         best = max(summaries, key=lambda s: s["real_time_factor"])
-        rows.append((
-            name, best["sim_time_s"], best["wall_time_s"], best["real_time_factor"],
-            best["real_time_factor"] / GOAL_REAL_TIME_FACTOR, best["integrator_steps"],
-            best["derivative_evaluations"], 1e6 * best["wall_time_s"] / best["integrator_steps"],
-        ))
+        rows.append(
+            (
+                name,
+                best["sim_time_s"],
+                best["wall_time_s"],
+                best["real_time_factor"],
+                best["real_time_factor"] / GOAL_REAL_TIME_FACTOR,
+                best["integrator_steps"],
+                best["derivative_evaluations"],
+                1e6 * best["wall_time_s"] / best["integrator_steps"],
+            )
+        )
     return rows
 
 
@@ -89,9 +96,19 @@ def derivative_costs() -> list[tuple]:
         a_T = gravity_acceleration_xyz(x[0], x[1], x[2], "two_body_j2")
         a_C = gravity_acceleration_xyz(x[0] + x[6], x[1] + x[7], x[2] + x[8], "two_body_j2")
         inverse_mass = 1.0 / x[12]
-        return [x[3], x[4], x[5], *a_T, x[9], x[10], x[11],
-                a_C[0] - a_T[0] + inverse_mass, a_C[1] - a_T[1] + 2 * inverse_mass,
-                a_C[2] - a_T[2] + 3 * inverse_mass, 0.0]
+        return [
+            x[3],
+            x[4],
+            x[5],
+            *a_T,
+            x[9],
+            x[10],
+            x[11],
+            a_C[0] - a_T[0] + inverse_mass,
+            a_C[1] - a_T[1] + 2 * inverse_mass,
+            a_C[2] - a_T[2] + 3 * inverse_mass,
+            0.0,
+        ]
 
     diagram, _ = build_diagram(hold)
     diagram_context = diagram.CreateDefaultContext()
@@ -106,10 +123,18 @@ def derivative_costs() -> list[tuple]:
 
     reference = time_call(plain_python_truth, 2000)
     rows = [("plain Python truth equations (reference)", reference)]
-    rows.append(("OrbitalDynamics.CalcTimeDerivatives (Drake, fixed inputs)",
-                 time_call(lambda: orbital.CalcTimeDerivatives(context, derivatives), 2000)))
-    rows.append(("hold_point diagram CalcTimeDerivatives (3 continuous systems)",
-                 time_call(diagram_derivative, 2000)))
+    rows.append(
+        (
+            "OrbitalDynamics.CalcTimeDerivatives (Drake, fixed inputs)",
+            time_call(lambda: orbital.CalcTimeDerivatives(context, derivatives), 2000),
+        )
+    )
+    rows.append(
+        (
+            "hold_point diagram CalcTimeDerivatives (3 continuous systems)",
+            time_call(diagram_derivative, 2000),
+        )
+    )
     return [(name, seconds * 1e6, seconds / reference) for name, seconds in rows]
 
 
@@ -136,8 +161,13 @@ def main():
             f"| {row[0]} | {row[1]:.0f} | {row[2]:.2f} | {row[3]:.1f} | {row[4]:.2f} | {row[5]} "
             f"| {row[6]} | {row[7]:.0f} |"
         )
-    lines += ["", "## Cost of one truth derivative", "",
-              "| evaluation | us per call | ratio to reference |", "| --- | ---: | ---: |"]
+    lines += [
+        "",
+        "## Cost of one truth derivative",
+        "",
+        "| evaluation | us per call | ratio to reference |",
+        "| --- | ---: | ---: |",
+    ]
     for name, microseconds, ratio in derivative_costs():
         lines.append(f"| {name} | {microseconds:.1f} | {ratio:.1f} |")
     text = "\n".join(lines) + "\n"

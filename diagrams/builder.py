@@ -282,7 +282,10 @@ def _collect_log(diagram, context, handles: DiagramHandles, scenario: Scenario) 
     count = len(t)
     data = {key: value[1][:count] for key, value in raw.items()}
     log = {"t": t}
-    log["p_LC_L"], log["v_LC_L"] = data["relative_state_L"][:, 0:3], data["relative_state_L"][:, 3:6]
+    log["p_LC_L"], log["v_LC_L"] = (
+        data["relative_state_L"][:, 0:3],
+        data["relative_state_L"][:, 3:6],
+    )
     log["q_IT"], log["w_IT_T"] = data["target_attitude"][:, 0:4], data["target_attitude"][:, 4:7]
     log["q_IC"], log["w_IC_C"] = data["chaser_attitude"][:, 0:4], data["chaser_attitude"][:, 4:7]
     log["q_IL"], log["w_IL_L"] = data["q_IL"], data["w_IL_L"]

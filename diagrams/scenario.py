@@ -160,7 +160,9 @@ class VisualizationConfig:
     publish_period_s: float = 0.5
     trail: bool = True
     trail_max_points: int = 400
-    camera_position_L_m: list[float] = dataclasses.field(default_factory=lambda: [25.0, -40.0, 18.0])
+    camera_position_L_m: list[float] = dataclasses.field(
+        default_factory=lambda: [25.0, -40.0, 18.0]
+    )
 
 
 @dataclasses.dataclass
@@ -239,8 +241,11 @@ def validate_scenario(scenario: Scenario) -> None:
     _vector(chaser.w_IC_C_deg_s, "chaser.w_IC_C_deg_s")
     _positive(chaser.mass_kg, "chaser.mass_kg")
     _inertia(chaser.inertia_kg_m2, "chaser.inertia_kg_m2")
-    _require(bool(np.all(_vector(chaser.size_m, "chaser.size_m") > 0)), "chaser.size_m",
-             "edge lengths must be positive")
+    _require(
+        bool(np.all(_vector(chaser.size_m, "chaser.size_m") > 0)),
+        "chaser.size_m",
+        "edge lengths must be positive",
+    )
     _vector(chaser.capture_point_C, "chaser.capture_point_C")
 
     target = scenario.target
@@ -249,8 +254,11 @@ def validate_scenario(scenario: Scenario) -> None:
     _vector(target.rpy_LT_deg, "target.rpy_LT_deg")
     _vector(target.w_IT_T_deg_s, "target.w_IT_T_deg_s")
     _inertia(target.inertia_kg_m2, "target.inertia_kg_m2")
-    _require(bool(np.all(_vector(target.size_m, "target.size_m") > 0)), "target.size_m",
-             "edge lengths must be positive")
+    _require(
+        bool(np.all(_vector(target.size_m, "target.size_m") > 0)),
+        "target.size_m",
+        "edge lengths must be positive",
+    )
     _vector(target.docking_port_T, "target.docking_port_T")
     _vector(target.docking_axis_T, "target.docking_axis_T", nonzero=True)
     _require(
@@ -261,27 +269,45 @@ def validate_scenario(scenario: Scenario) -> None:
 
     thrusters = scenario.thrusters
     if thrusters.enabled:
-        _require(thrusters.layout in THRUSTER_LAYOUTS, "thrusters.layout",
-                 f"must be one of {THRUSTER_LAYOUTS}, got '{thrusters.layout}'")
-        _require(thrusters.layout != "gimbaled_cuboid_8", "thrusters.layout",
-                 "gimbaled_cuboid_8 needs a force-vector controller (the NMPC of paper 001); "
-                 "the hold-point allocator drives fixed thrusters only")
+        _require(
+            thrusters.layout in THRUSTER_LAYOUTS,
+            "thrusters.layout",
+            f"must be one of {THRUSTER_LAYOUTS}, got '{thrusters.layout}'",
+        )
+        _require(
+            thrusters.layout != "gimbaled_cuboid_8",
+            "thrusters.layout",
+            "gimbaled_cuboid_8 needs a force-vector controller (the NMPC of paper 001); "
+            "the hold-point allocator drives fixed thrusters only",
+        )
         _positive(thrusters.max_thrust_N, "thrusters.max_thrust_N")
         _positive(thrusters.isp_s, "thrusters.isp_s")
         _positive(thrusters.size_m, "thrusters.size_m")
         _require(thrusters.subdivisions >= 1, "thrusters.subdivisions", "must be at least 1")
-        _require(0 <= thrusters.min_on_slots <= thrusters.subdivisions, "thrusters.min_on_slots",
-                 "must be between 0 and subdivisions")
+        _require(
+            0 <= thrusters.min_on_slots <= thrusters.subdivisions,
+            "thrusters.min_on_slots",
+            "must be between 0 and subdivisions",
+        )
 
     controller = scenario.controller
     _require(controller.type in CONTROLLERS, "controller.type", f"must be one of {CONTROLLERS}")
     if controller.type == "hold_point":
-        _require(thrusters.enabled, "thrusters.enabled", "the hold_point controller needs thrusters")
+        _require(
+            thrusters.enabled, "thrusters.enabled", "the hold_point controller needs thrusters"
+        )
         gains = controller.hold_point
         prefix = "controller.hold_point."
-        for name in ("control_period_s", "translation_bandwidth_rad_s", "translation_damping",
-                     "max_speed_m_s", "attitude_bandwidth_rad_s", "attitude_damping",
-                     "descent_gate_deg", "max_reference_step_deg"):
+        for name in (
+            "control_period_s",
+            "translation_bandwidth_rad_s",
+            "translation_damping",
+            "max_speed_m_s",
+            "attitude_bandwidth_rad_s",
+            "attitude_damping",
+            "descent_gate_deg",
+            "max_reference_step_deg",
+        ):
             _positive(getattr(gains, name), prefix + name)
         _require(gains.hold_distance_m >= 0, prefix + "hold_distance_m", "must not be negative")
         _vector(gains.capture_axis_C, prefix + "capture_axis_C", nonzero=True)
@@ -289,10 +315,16 @@ def validate_scenario(scenario: Scenario) -> None:
     _positive(scenario.duration_s, "duration_s")
     _positive(scenario.log_period_s, "log_period_s")
     integrator = scenario.integrator
-    _require(integrator.scheme in INTEGRATION_SCHEMES, "integrator.scheme",
-             f"must be one of {INTEGRATION_SCHEMES}")
+    _require(
+        integrator.scheme in INTEGRATION_SCHEMES,
+        "integrator.scheme",
+        f"must be one of {INTEGRATION_SCHEMES}",
+    )
     _positive(integrator.accuracy, "integrator.accuracy")
     _positive(integrator.max_step_s, "integrator.max_step_s")
     _positive(scenario.visualization.publish_period_s, "visualization.publish_period_s")
-    _require(scenario.visualization.trail_max_points >= 1, "visualization.trail_max_points",
-             "must be at least 1")
+    _require(
+        scenario.visualization.trail_max_points >= 1,
+        "visualization.trail_max_points",
+        "must be at least 1",
+    )

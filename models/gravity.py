@@ -24,7 +24,7 @@ GRAVITY_MODELS = ("two_body_j2", "two_body", "cw", "free_space")
 def two_body_acceleration(p_I: np.ndarray, mu: float = MU_EARTH_M3_S2) -> np.ndarray:
     """Point-mass gravity a = -mu r / |r|^3 (paper 004 eq. 3, first term)."""
     r2 = p_I[0] * p_I[0] + p_I[1] * p_I[1] + p_I[2] * p_I[2]
-    r = np.sqrt(r2) if isinstance(r2, float) else r2 ** 0.5
+    r = np.sqrt(r2) if isinstance(r2, float) else r2**0.5
     return (-mu / (r2 * r)) * p_I
 
 
@@ -34,7 +34,7 @@ def j2_acceleration(
     """J2 zonal-harmonic perturbation in ECI (paper 004 eq. 3, a_J2; Vallado eq. 8-30)."""
     x, y, z = p_I[0], p_I[1], p_I[2]
     r2 = x * x + y * y + z * z
-    r = r2 ** 0.5
+    r = r2**0.5
     k = -1.5 * j2 * mu * r_earth * r_earth / (r2 * r2 * r)
     s = 5.0 * z * z / r2
     return np.array([k * x * (1.0 - s), k * y * (1.0 - s), k * z * (3.0 - s)])
@@ -54,7 +54,9 @@ def gravity_acceleration(p_I: np.ndarray, model: str) -> np.ndarray:
     raise ValueError(f"unknown gravity model '{model}', expected one of {GRAVITY_MODELS}")
 
 
-def gravity_acceleration_xyz(x: float, y: float, z: float, model: str) -> tuple[float, float, float]:
+def gravity_acceleration_xyz(
+    x: float, y: float, z: float, model: str
+) -> tuple[float, float, float]:
     """Float-only gravity_acceleration on components, for simulation hot paths.
 
     Same equations as two_body_acceleration + j2_acceleration with plain Python floats, which is

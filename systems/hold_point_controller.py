@@ -211,4 +211,3 @@ class HoldPointController(LeafSystem):
             np.concatenate([tau_C, f_C, p_H, p_R])
         )
         state.get_mutable_abstract_state(self._previous_desired).set_value(R_ICdes)
-

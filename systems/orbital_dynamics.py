@@ -22,7 +22,6 @@ Clohessy-Wiltshire equations (paper 004 eq. 4) about the target's two-body circu
 fixed at the origin and L coincides with I.
 """
 
-
 import dataclasses
 import math
 

@@ -39,8 +39,16 @@ BAD_FILES = [
     ),
     ("quaternion_zero_norm", "target:\n  q_LT: [0.0, 0.0, 0.0, 0.0]\n", "target.q_LT"),
     ("altitude_below_100_km", "orbit:\n  altitude_m: 99000.0\n", "orbit.altitude_m"),
-    ("cone_angle_zero", "target:\n  corridor_half_angle_deg: 0.0\n", "target.corridor_half_angle_deg"),
-    ("cone_angle_90", "target:\n  corridor_half_angle_deg: 90.0\n", "target.corridor_half_angle_deg"),
+    (
+        "cone_angle_zero",
+        "target:\n  corridor_half_angle_deg: 0.0\n",
+        "target.corridor_half_angle_deg",
+    ),
+    (
+        "cone_angle_90",
+        "target:\n  corridor_half_angle_deg: 90.0\n",
+        "target.corridor_half_angle_deg",
+    ),
     ("unknown_gravity", "orbit:\n  gravity: moon\n", "orbit.gravity"),
     ("vector_length", "chaser:\n  v_LC_L: [0.0, 0.0]\n", "chaser.v_LC_L"),
     ("top_level_not_mapping", "- 1\n- 2\n", "(top level)"),

@@ -15,12 +15,30 @@ from rpod.diagrams.recording import find_chromium, screenshot_html
 from rpod.models.frames import rotation_from_wxyz
 
 LOG_KEYS = [
-    "t", "p_LC_L", "v_LC_L", "q_IT", "w_IT_T", "q_IC", "w_IC_C", "thruster_duty", "body_wrench",
-    "propellant_kg", "separation_m", "p_IT_I", "v_IT_I",
+    "t",
+    "p_LC_L",
+    "v_LC_L",
+    "q_IT",
+    "w_IT_T",
+    "q_IC",
+    "w_IC_C",
+    "thruster_duty",
+    "body_wrench",
+    "propellant_kg",
+    "separation_m",
+    "p_IT_I",
+    "v_IT_I",
 ]
 SUMMARY_KEYS = [
-    "status", "sim_time_s", "wall_time_s", "delta_v_m_s", "propellant_kg", "min_separation_m",
-    "final_p_LC_L", "final_speed_m_s", "final_range_m",
+    "status",
+    "sim_time_s",
+    "wall_time_s",
+    "delta_v_m_s",
+    "propellant_kg",
+    "min_separation_m",
+    "final_p_LC_L",
+    "final_speed_m_s",
+    "final_range_m",
 ]
 
 
@@ -29,7 +47,9 @@ def run_dir(tmp_path_factory):
     out = tmp_path_factory.mktemp("hold_point") / "run"
     process = subprocess.run(
         [sys.executable, "-m", "rpod.scenarios.cli", "run", "hold_point", "--out", str(out)],
-        capture_output=True, text=True, timeout=600,
+        capture_output=True,
+        text=True,
+        timeout=600,
     )
     assert process.returncode == 0, process.stderr
     assert "hold point reached" in process.stdout
@@ -40,8 +60,13 @@ def test_every_output_is_written(run_dir):
     names = {p.name for p in run_dir.iterdir()}
     assert {"summary.json", "log.npz", "recording.html", "plots", "scenario.yaml"} <= names
     plots = {p.name for p in (run_dir / "plots").iterdir()}
-    assert {"trajectory_lvlh.png", "trajectory_target_body.png", "thrust.png", "duty.png",
-            "separation.png"} <= plots
+    assert {
+        "trajectory_lvlh.png",
+        "trajectory_target_body.png",
+        "thrust.png",
+        "duty.png",
+        "separation.png",
+    } <= plots
     assert not any(p.name.startswith(".") for p in run_dir.parent.iterdir())  # no staging left
 
 
@@ -76,8 +101,9 @@ def test_hold_is_synchronised_with_the_tumble(run_dir):
     """Over the last 30 s the chaser stays on the docking axis and faces the target."""
     log = np.load(run_dir / "log.npz")
     last = log["t"] > log["t"][-1] - 30.0
-    for q_IL, q_IT, q_IC, p in zip(log["q_IL"][last], log["q_IT"][last], log["q_IC"][last],
-                                   log["p_LC_L"][last]):
+    for q_IL, q_IT, q_IC, p in zip(
+        log["q_IL"][last], log["q_IT"][last], log["q_IC"][last], log["p_LC_L"][last]
+    ):
         R_IL = rotation_from_wxyz(q_IL)
         docking_axis_L = R_IL.T @ rotation_from_wxyz(q_IT)[:, 2]
         capture_axis_L = R_IL.T @ rotation_from_wxyz(q_IC)[:, 2]
