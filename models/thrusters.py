@@ -11,8 +11,8 @@ Owns the equations of the chaser's propulsion, as plain numpy functions and data
 - The gimbal pointing polyhedron (paper 001 eq. 16), the magnitude limit (eq. 17), the gimbal
   angles of eq. 13 and the projection of a commanded force onto the feasible set.
 - Propellant mass flow, mdot = sum_k |f_k| / (Isp_k g0).
-- `allocate_duty`: the box-constrained least-squares allocation of paper 003 eq. 14 with an
-  exact minimum-fuel tie-break.
+- `allocate_duty` / `DutyAllocator`: the box-constrained least-squares allocation of paper 003
+  eq. 14 with an exact minimum-fuel tie-break (`allocate_duty_reference`: the scipy version).
 
 It does not own time: the Drake systems that apply these maps every step live in
 `rpod.systems.thruster_bank`, `rpod.systems.pwm` and `rpod.systems.allocator`.
@@ -29,6 +29,7 @@ perpendicular to the (i_K, j_K) and (k_K, j_K) planes.
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field
 
@@ -504,6 +505,322 @@ def mass_flow_rate(layout: ThrusterLayout, thrust_magnitudes_N: np.ndarray) -> f
 # --------------------------------------------------------------------------------------------
 # Allocation (paper 003 eq. 14).
 
+_BOX_SLACK_TOL = 1e-10
+"""Largest excursion of a basis' levels outside [0, 1] (duty units) accepted as round-off; the
+levels are then clipped. The basis solve itself is exact to ~1e-15."""
+
+_TIE_TOL = 1e-9
+"""Reduced fuel cost (fuel cost scaled to a largest entry of 1) at or below which two vertices
+count as equally cheap, so that the secondary tie-break decides between them."""
+
+_KKT_TOL = 1e-11
+"""Bound multiplier violation accepted by the box least-squares stage, relative to
+||(W B)^T W w|| (the tests require 1e-9)."""
+
+_MIN_BASIS_SINGULAR_VALUE = 1e-8
+"""Column subsets of the (orthonormal-row) equality matrix whose smallest singular value is
+below this are not bases (for the presets they are exactly singular, ~1e-16)."""
+
+_FREE_SET_CACHE_SIZE = 4096
+"""Free sets whose Gram inverse `DutyAllocator` keeps (cleared when full)."""
+
+MAX_ENUMERATED_BASES = 20000
+"""Largest number of candidate bases C(n, rank) enumerated by `DutyAllocator`; above it the
+allocator uses `allocate_duty_reference` (rcs_cube_12: C(12, 6) = 924, planar_8: C(8, 3) = 56)."""
+
+
+def _first_primes(count: int) -> np.ndarray:
+    """The first `count` prime numbers, as floats."""
+    primes: list[int] = []
+    k = 2
+    while len(primes) < count:
+        if all(k % p for p in primes if p * p <= k):
+            primes.append(k)
+        k += 1
+    return np.array(primes, dtype=float)
+
+
+def _validated_weights(weights: np.ndarray | None, m: int) -> np.ndarray:
+    W = np.ones(m) if weights is None else np.asarray(weights, dtype=float)
+    if W.shape != (m,) or not np.all(np.isfinite(W)) or np.any(W < 0) or not np.any(W > 0):
+        raise ValueError(f"weights must be {m} numbers >= 0, not all 0; got {weights!r}")
+    return W
+
+
+def _validated_fuel_cost(fuel_cost: np.ndarray | None, n: int) -> np.ndarray:
+    c = np.ones(n) if fuel_cost is None else np.asarray(fuel_cost, dtype=float).reshape(n)
+    if np.any(c <= 0) or not np.all(np.isfinite(c)):
+        raise ValueError(f"fuel_cost must be {n} finite numbers > 0, got {fuel_cost!r}")
+    return c
+
+
+class DutyAllocator:
+    """The problem of `allocate_duty` for one (B, weights, fuel_cost), set up once, solved often.
+
+    u = argmin ||W (B u - w)||^2 s.t. 0 <= u <= 1 (paper 003 eq. 14), then, among all such u,
+    the least fuel_cost . u; among those, the least c2 . u with c2_k = sqrt(p_k) (p_k the k-th
+    prime), a fixed generic weighting that only makes the answer unique, so it does not depend
+    on solver internals or call history. The fuel is never traded for c2 (lexicographic).
+
+    Set-up (once): W B = U S V^T (SVD, rank r); W B u = y <=> A u = S^-1 U^T y with A = V_r^T
+    (orthonormal rows). The fuel problem min c.u s.t. A u = b, 0 <= u <= 1 is an LP whose
+    optimal vertices are given by bases: r independent columns S of A, the other levels at 0 or
+    1. A basis is optimal for b iff it is primal feasible (its basic levels
+    A_S^-1 (b - A_N u_N) lie in [0, 1]) and dual feasible (each nonbasic level sits at the bound
+    its reduced cost d = c - A^T A_S^-T c_S points to). Dual feasibility does not depend on b,
+    so all C(n, r) column subsets are enumerated here and each nonsingular one keeps the single
+    bound pattern that makes it (lexicographically, fuel then c2) dual feasible. rcs_cube_12
+    gives 64 bases, planar_8 32.
+
+    Per call:
+    1. b = S^-1 U^T W w. All bases' basic levels in one matrix product; the basis with the
+       largest box slack, if that slack is >= -1e-10, is optimal: W B u equals the reachable
+       part of W w to round-off (a feasible wrench is reproduced exactly, and the projection
+       onto range(W B) is the least-squares optimum) and u is fuel-minimal. No solver runs.
+    2. Otherwise w is infeasible: a primal active-set box least-squares solve (Lawson-Hanson
+       style: start at a box vertex, only release a bound whose multiplier has the wrong sign
+       at a subspace minimiser, so the free columns stay independent; it stops when the KKT
+       conditions hold to 1e-11 relative, typically after 1-5 passes) gives the optimal
+       wrench y* = W B u1 (unique even when u1 is not), then step 1 on b* = A u1 picks the
+       fuel-minimal u on the optimal face.
+    Whatever the stage-2 route cannot certify (enumeration too large, the active-set iteration
+    cap, no optimal basis found) goes to `allocate_duty_reference`, counted in
+    `fallback_count`.
+    """
+
+    def __init__(
+        self,
+        B: np.ndarray,
+        weights: np.ndarray | None = None,
+        fuel_cost: np.ndarray | None = None,
+        *,
+        max_bases: int = MAX_ENUMERATED_BASES,
+    ):
+        """Factors W B and enumerates the optimal bases.
+
+        Args:
+            B: Effectiveness matrix (m, n), e.g. `wrench_matrix(layout)`.
+            weights: Diagonal of W (m,), each >= 0, not all 0 (None: all ones).
+            fuel_cost: Cost of each unit of u_k (n,), > 0 (None: all ones; pass
+                `layout.max_mass_flows_kg_s` for propellant mass).
+            max_bases: Largest C(n, rank) enumerated (else the reference path is used).
+
+        Raises:
+            ValueError: On a non-finite or non-2-D B, bad weights or bad fuel_cost.
+        """
+        B = np.array(B, dtype=float)
+        if B.ndim != 2 or B.shape[1] == 0 or not np.all(np.isfinite(B)):
+            raise ValueError(f"B must be a finite (m, n) matrix with n >= 1, got shape {B.shape}")
+        self.m, self.n = B.shape
+        self._B = B
+        self._weights = None if weights is None else _validated_weights(weights, self.m)
+        W = _validated_weights(weights, self.m)
+        self._fuel_cost = None if fuel_cost is None else _validated_fuel_cost(fuel_cost, self.n)
+        c = _validated_fuel_cost(fuel_cost, self.n)
+        self.fallback_count = 0
+        """Calls answered by `allocate_duty_reference` (0 on the presets in practice)."""
+
+        Bw = W[:, None] * B
+        U, s, Vt = np.linalg.svd(Bw, full_matrices=False)
+        r = int(np.sum(s > s[0] * 1e-12)) if s.size and s[0] > 0 else 0
+        self.rank = r
+        self._basis_columns = None
+        if r == 0:
+            return
+        self._T = U[:, :r].T * W  # t = U_r^T W w: the reachable part of W w, in r coordinates
+        self._inv_s = 1.0 / s[:r]
+        self._A = Vt[:r]  # W B u = U_r S_r A u
+        self._M = s[:r, None] * self._A  # ||W B u - W w||^2 = ||M u - t||^2 + const
+        self._gram = self._M.T @ self._M  # = (W B)^T W B
+        self._free_set_cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+        self._max_ls_iterations = 10 * self.n + 10
+        self._c = c / np.max(c)  # scale-free reduced costs (mass flows are ~1e-3 kg/s)
+        c2 = np.sqrt(_first_primes(self.n))
+        self._c2 = c2 / np.max(c2)
+        if math.comb(self.n, r) <= max_bases:
+            self._enumerate_bases()
+
+    @property
+    def basis_count(self) -> int:
+        """Number of enumerated optimal bases (0 when the reference path is used)."""
+        return 0 if self._basis_columns is None else len(self._basis_columns)
+
+    def _enumerate_bases(self) -> None:
+        A, n, r = self._A, self.n, self.rank
+        cols = np.array(list(itertools.combinations(range(n), r)), dtype=np.intp)
+        mats = np.transpose(A[:, cols], (1, 0, 2))  # (K, r, r): A restricted to each subset
+        smallest = np.linalg.svd(mats, compute_uv=False)[:, -1]
+        keep = smallest > _MIN_BASIS_SINGULAR_VALUE
+        cols, mats = cols[keep], mats[keep]
+        inv = np.linalg.inv(mats)
+        # Reduced costs d = c - A^T y, y = A_S^-T c_S, of the fuel (d1) and tie-break (d2) costs.
+        d1 = self._c - np.einsum("kji,kj->ki", inv, self._c[cols]) @ A
+        d2 = self._c2 - np.einsum("kji,kj->ki", inv, self._c2[cols]) @ A
+        nonbasic = np.ones((len(cols), n), dtype=bool)
+        nonbasic[np.arange(len(cols))[:, None], cols] = False
+        tie = np.abs(d1) <= _TIE_TOL
+        # A nonbasic level sits at 1 iff raising it lowers the (lexicographic) cost.
+        upper = nonbasic & np.where(tie, d2 < 0.0, d1 < 0.0)
+        ambiguous = nonbasic & tie & (np.abs(d2) <= _TIE_TOL)
+        if np.any(ambiguous):  # both bounds are optimal: keep both patterns
+            rows, patterns = [], []
+            for k in range(len(cols)):
+                free_bits = np.flatnonzero(ambiguous[k])
+                for bits in itertools.product((False, True), repeat=free_bits.size):
+                    pattern = upper[k].copy()
+                    pattern[free_bits] = bits
+                    rows.append(k)
+                    patterns.append(pattern)
+            cols, inv, upper = cols[rows], inv[rows], np.array(patterns)
+        levels = upper.astype(float)  # nonbasic levels (0 or 1); 0 on the basic columns
+        K = len(cols)
+        self._basis_columns = cols
+        self._basis_levels = levels
+        self._basis_inverse_rows = inv.reshape(K * r, r)
+        # Basic levels = A_S^-1 (b - A levels) = A_S^-1 b + offset.
+        self._basis_offset = -np.einsum("kij,kj->ki", inv, levels @ A.T)
+
+    def _fuel_minimal(self, b: np.ndarray) -> np.ndarray | None:
+        """Lexicographically fuel-minimal u with A u = b, 0 <= u <= 1; None if infeasible."""
+        K, r = self._basis_offset.shape
+        basic = (self._basis_inverse_rows @ b).reshape(K, r)
+        basic += self._basis_offset
+        slack = np.minimum(basic, 1.0 - basic).min(axis=1)
+        k = int(np.argmax(slack))
+        if slack[k] < -_BOX_SLACK_TOL:
+            return None
+        u = self._basis_levels[k].copy()
+        u[self._basis_columns[k]] = np.clip(basic[k], 0.0, 1.0)
+        return u
+
+    def _box_least_squares(self, t: np.ndarray) -> np.ndarray | None:
+        """argmin ||M u - t|| s.t. 0 <= u <= 1 by a primal active-set method; None when the
+        iteration cap is reached.
+
+        Deterministic: starts with every level fixed at the box vertex u_k = [(M^T t)_k > 0]
+        (the reachable wrench furthest along W w, near the optimum for a far-off w). Each pass
+        either minimises over the free levels (normal equations on the free columns,
+        independent by construction; cached inverse per free set), stepping back to the box
+        and fixing the first level that reaches a bound, or, at a subspace minimiser, frees
+        the fixed level whose multiplier g = M^T (M u - t) has the most wrong sign. Stops
+        when every multiplier has the right sign to `_KKT_TOL` of ||M^T t||.
+        """
+        G, h = self._gram, self._M.T @ t
+        u = (h > 0.0).astype(float)  # the box vertex furthest along W w (support point)
+        fixed = np.ones(self.n, dtype=bool)
+        tol = _KKT_TOL * np.linalg.norm(h)
+        for _ in range(self._max_ls_iterations):
+            g = G @ u - h
+            free, G_free_inv = self._free_set(fixed)
+            if free.size:
+                u_free = u[free]
+                step = G_free_inv @ -g[free]
+                target = u_free + step
+                if target.min() < 0.0 or target.max() > 1.0:
+                    # Largest step keeping the box; fix the first level to reach a bound.
+                    ratio = np.full(free.size, np.inf)
+                    room = np.where(step < 0.0, -u_free, 1.0 - u_free)
+                    np.divide(room, step, out=ratio, where=step != 0.0)
+                    i = int(np.argmin(ratio))
+                    u[free] = np.clip(u_free + max(ratio[i], 0.0) * step, 0.0, 1.0)
+                    u[free[i]] = 1.0 if step[i] > 0.0 else 0.0
+                    fixed[free[i]] = True
+                    continue
+                u[free] = target
+                g = G @ u - h
+            # Subspace minimiser: check the multipliers of the fixed levels.
+            violation = np.where(u >= 1.0, g, -g)
+            violation[~fixed] = 0.0
+            j = int(np.argmax(violation))
+            if violation[j] <= tol:
+                return u
+            fixed[j] = False
+        return None
+
+    def _free_set(self, fixed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Indices of the free levels and the (pseudo-)inverse of their Gram matrix, cached
+        per free set (a pure function of it; at most sum_k C(n, k), k <= rank, sets occur)."""
+        key = fixed.tobytes()
+        entry = self._free_set_cache.get(key)
+        if entry is None:
+            free = np.flatnonzero(~fixed)
+            G_free = self._gram[np.ix_(free, free)]
+            try:
+                G_free_inv = np.linalg.inv(G_free)
+            except np.linalg.LinAlgError:
+                G_free_inv = np.linalg.pinv(G_free)
+            if len(self._free_set_cache) >= _FREE_SET_CACHE_SIZE:
+                self._free_set_cache.clear()
+            entry = self._free_set_cache[key] = (free, G_free_inv)
+        return entry
+
+    def _reference(self, w: np.ndarray, minimize_fuel: bool) -> np.ndarray:
+        self.fallback_count += 1
+        return allocate_duty_reference(
+            self._B, w, self._weights, minimize_fuel=minimize_fuel, fuel_cost=self._fuel_cost
+        )
+
+    def solve(self, w: np.ndarray, minimize_fuel: bool = True) -> np.ndarray:
+        """Duty levels for the desired wrench w (m,); see the class docstring.
+
+        Args:
+            w: Desired wrench (m,). Non-finite: returns zeros.
+            minimize_fuel: Run the fuel tie-break. Without it, returns the (deterministic)
+                active-set least-squares solution, optimal but not fuel-minimal.
+
+        Returns:
+            u (n,) with every entry in [0, 1].
+        """
+        w = np.asarray(w, dtype=float).reshape(self.m)
+        # A non-finite entry makes the sum non-finite (a finite sum proves all are finite).
+        if self.rank == 0 or not (math.isfinite(w.sum()) or np.all(np.isfinite(w))):
+            return np.zeros(self.n)
+        t = self._T @ w
+        if minimize_fuel:
+            if self._basis_columns is None:
+                return self._reference(w, minimize_fuel)
+            u = self._fuel_minimal(t * self._inv_s)
+            if u is not None:
+                return u  # reachable: exact and fuel-minimal
+        u1 = self._box_least_squares(t)
+        if u1 is None:
+            return self._reference(w, minimize_fuel)
+        if not minimize_fuel:
+            return u1
+        u2 = self._fuel_minimal(self._A @ u1)  # the optimal face W B u = W B u1
+        if u2 is None:
+            return self._reference(w, minimize_fuel)
+        r1 = np.linalg.norm(self._M @ u1 - t)
+        r2 = np.linalg.norm(self._M @ u2 - t)
+        if r2 > r1 + 1e-12 * (np.linalg.norm(t) + r1):
+            return self._reference(w, minimize_fuel)
+        return u2
+
+
+_ALLOCATOR_CACHE: dict[tuple, DutyAllocator] = {}
+_ALLOCATOR_CACHE_SIZE = 16
+
+
+def _cached_allocator(
+    B: np.ndarray, weights: np.ndarray | None, fuel_cost: np.ndarray | None
+) -> DutyAllocator:
+    """A DutyAllocator for these arrays, reused across `allocate_duty` calls (its answers do
+    not depend on what it solved before)."""
+    B = np.asarray(B, dtype=float)
+    key = (
+        B.shape,
+        B.tobytes(),
+        None if weights is None else np.asarray(weights, dtype=float).tobytes(),
+        None if fuel_cost is None else np.asarray(fuel_cost, dtype=float).tobytes(),
+    )
+    allocator = _ALLOCATOR_CACHE.get(key)
+    if allocator is None:
+        allocator = DutyAllocator(B, weights, fuel_cost)
+        if len(_ALLOCATOR_CACHE) >= _ALLOCATOR_CACHE_SIZE:
+            _ALLOCATOR_CACHE.pop(next(iter(_ALLOCATOR_CACHE)))
+        _ALLOCATOR_CACHE[key] = allocator
+    return allocator
+
 
 def allocate_duty(
     B: np.ndarray,
@@ -515,6 +832,40 @@ def allocate_duty(
 ) -> np.ndarray:
     """Duty levels u = argmin ||W (B u - w)||^2 s.t. 0 <= u <= 1 (paper 003 eq. 14).
 
+    Lexicographic, so the tie-break never costs accuracy: first the best (weighted) fit, then,
+    if minimize_fuel, the least fuel_cost . u among all allocations achieving it, then a fixed
+    generic tie-break that makes u unique. A feasible wrench (w = B u for some u in the box) is
+    reproduced to round-off; an infeasible one gets the (weighted) least-squares optimum. See
+    `DutyAllocator` for the method (~15 us a call for a feasible wrench, ~60-90 us for an
+    infeasible one, against ~1.7 ms for the scipy `allocate_duty_reference`; see
+    benchmarks/bench_allocator.py); the allocator of each (B, weights, fuel_cost) is built once
+    (a few ms) and reused by later calls. Hold a `DutyAllocator` directly in code called every
+    step.
+
+    Args:
+        B: Effectiveness matrix (m, n), e.g. `wrench_matrix(layout)`.
+        w: Desired wrench (m,).
+        weights: Diagonal of W (m,), each >= 0 (None: all ones).
+        minimize_fuel: Run the fuel tie-break.
+        fuel_cost: Cost of each unit of u_k in the tie-break (n,), > 0 (None: all ones; pass
+            `layout.max_mass_flows_kg_s` for propellant mass).
+
+    Returns:
+        u (n,) with every entry in [0, 1].
+    """
+    return _cached_allocator(B, weights, fuel_cost).solve(w, minimize_fuel=minimize_fuel)
+
+
+def allocate_duty_reference(
+    B: np.ndarray,
+    w: np.ndarray,
+    weights: np.ndarray | None = None,
+    *,
+    minimize_fuel: bool = True,
+    fuel_cost: np.ndarray | None = None,
+) -> np.ndarray:
+    """The scipy implementation of `allocate_duty` (~2 ms a call): reference and fallback.
+
     Two lexicographic stages, so the tie-break never costs accuracy:
     1. scipy.optimize.lsq_linear, method 'bvls' (an exact active-set method), tol 1e-12: the
        weighted wrench y* = W B u1 closest to W w is unique even when u1 is not.
@@ -524,7 +875,8 @@ def allocate_duty(
        The stage-2 result is kept only if its fit is as good as stage 1's (to 1e-12 relative)
        and it is cheaper; otherwise u1 is returned.
     So a feasible wrench (w = B u for some u in the box) is reproduced to round-off, and an
-    infeasible one gets the (weighted) least-squares optimum.
+    infeasible one gets the (weighted) least-squares optimum. Among equally cheap allocations
+    the vertex returned is HiGHS's choice (`allocate_duty` makes it unique instead).
 
     Args:
         B: Effectiveness matrix (m, n), e.g. `wrench_matrix(layout)`.

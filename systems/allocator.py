@@ -1,16 +1,17 @@
 """WrenchAllocator: desired body wrench in, thruster duty levels out (paper 003 eq. 14).
 
-Owns only the Drake wrapping; the optimisation is `rpod.models.thrusters.allocate_duty`
-(box-constrained least squares, then an exact minimum-fuel tie-break), kept in `models` so
-planners can reuse it. It does not modulate (`rpod.systems.pwm`) nor apply limits in time
-(`rpod.systems.thruster_bank`).
+Owns only the Drake wrapping; the optimisation is `rpod.models.thrusters.DutyAllocator`
+(box-constrained least squares, then an exact minimum-fuel tie-break; the same answer as
+`allocate_duty`), kept in `models` so planners can reuse it. It does not modulate
+(`rpod.systems.pwm`) nor apply limits in time (`rpod.systems.thruster_bank`).
 
-Cost. The output is a direct feedthrough of the input and costs a least-squares solve plus an
-LP (about 2 ms; 0.2 ms with minimize_fuel=False) each time it is recomputed. Drake's cache
-recomputes it only when the input changes, so feed it from a discrete (sampled) controller
-output, e.g. a controller with a periodic update or a ZeroOrderHold, whose value is constant
-between control instants; fed by a continuous signal it would be re-solved at every
-integrator stage.
+Cost. The output is a direct feedthrough of the input. The allocator's bases are enumerated once
+in the constructor (a few ms); each recomputation then costs ~30 us for a feasible wrench and
+~80 us for an infeasible one (benchmarks/bench_allocator.py; the scipy path it replaced took
+~2 ms). Drake's cache recomputes it only when the input changes, so feed it from a
+discrete (sampled) controller output, e.g. a controller with a periodic update or a
+ZeroOrderHold, whose value is constant between control instants; fed by a continuous signal it
+would be re-solved at every integrator stage.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 from pydrake.systems.framework import BasicVector, Context, LeafSystem
 
-from rpod.models.thrusters import ThrusterLayout, allocate_duty, validate_layout, wrench_matrix
+from rpod.models.thrusters import DutyAllocator, ThrusterLayout, validate_layout, wrench_matrix
 
 
 class WrenchAllocator(LeafSystem):
@@ -26,7 +27,8 @@ class WrenchAllocator(LeafSystem):
 
     u = argmin ||W (B u - w)||^2 s.t. 0 <= u <= 1 (paper 003 eq. 14), B = wrench_matrix(layout);
     among equally good u, the one of least propellant mass flow (exact lexicographic
-    tie-break; see `allocate_duty`). A non-finite desired wrench gives u = 0.
+    tie-break; see `DutyAllocator`, built once here). The answer depends on the input only,
+    not on earlier evaluations. A non-finite desired wrench gives u = 0.
 
     Input ports:
         body_wrench_desired (6): [tau_C; f_C] in the chaser body frame C, N m and N.
@@ -64,7 +66,7 @@ class WrenchAllocator(LeafSystem):
         if bad_weights:
             raise ValueError(f"weights must be 6 numbers >= 0, not all 0; got {weights!r}")
         self._minimize_fuel = bool(minimize_fuel)
-        self._fuel_cost = layout.max_mass_flows_kg_s
+        self._solver = DutyAllocator(self._B, self._weights, layout.max_mass_flows_kg_s)
         self._wrench_port = self.DeclareVectorInputPort("body_wrench_desired", 6)
         self.DeclareVectorOutputPort(
             "thruster_duty",
@@ -78,13 +80,11 @@ class WrenchAllocator(LeafSystem):
         """B (6 x n), wrench = B @ duty."""
         return self._B
 
+    @property
+    def solver(self) -> DutyAllocator:
+        """The allocator solving each evaluation (its `fallback_count` is a diagnostic)."""
+        return self._solver
+
     def _calc_duty(self, context: Context, output: BasicVector) -> None:
         w = self._wrench_port.Eval(context)
-        u = allocate_duty(
-            self._B,
-            w,
-            self._weights,
-            minimize_fuel=self._minimize_fuel,
-            fuel_cost=self._fuel_cost,
-        )
-        output.SetFromVector(u)
+        output.SetFromVector(self._solver.solve(w, minimize_fuel=self._minimize_fuel))

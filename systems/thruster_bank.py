@@ -40,7 +40,9 @@ class ThrusterBank(LeafSystem):
     Clipping always happens (no out-of-limit command reaches the wrench): levels are clamped to
     [0, 1] (NaN -> 0); gimbaled forces are mapped into the feasible set by the rule of
     `rpod.models.thrusters.clip_gimbaled_forces` (pyramid eq. 16, then magnitude eq. 17). The
-    tolerance only keeps solver round-off from being reported as clipping.
+    tolerance only keeps solver round-off from being reported as clipping. Fixed-layout
+    commands already in [0, 1] (every PWM on/off command) are copied as they are, skipping the
+    clip arithmetic.
 
     All outputs depend on the input port only (declared, through one cache entry holding the
     clipped command), so Drake's cache computes them once per new command and keeps them across
@@ -60,6 +62,7 @@ class ThrusterBank(LeafSystem):
         self._layout = layout
         self._n = layout.count
         self._gimbaled = layout.gimbaled
+        self._command_size = layout.command_size
         self._report_tolerance = float(report_tolerance)
         self._B = wrench_matrix(layout)
         self._mdot_per_level = layout.max_mass_flows_kg_s  # f_max / (Isp g0), kg/s
@@ -111,7 +114,13 @@ class ThrusterBank(LeafSystem):
     def _calc_clipped(self, context: Context, value: AbstractValue) -> None:
         command = self._command_port.Eval(context)
         stored = value.get_mutable_value()
-        m = self._layout.command_size
+        m = self._command_size
+        if not self._gimbaled and command.min() >= 0.0 and command.max() <= 1.0:
+            # Fast path (every PWM on/off command): in range and finite (NaN fails both
+            # comparisons), so applied = command bit for bit and nothing is reported.
+            stored[:m] = command
+            stored[m:] = 0.0
+            return
         if self._gimbaled:
             # Pyramid (paper 001 eq. 16) then magnitude (eq. 17), see clip_gimbaled_forces.
             F, violation = self._geometry.clip(command.reshape(self._n, 3))
@@ -128,7 +137,7 @@ class ThrusterBank(LeafSystem):
 
     def _applied(self, context: Context) -> np.ndarray:
         """Clipped levels (n) or forces (3n), read from the cache."""
-        return self._clipped_entry.Eval(context)[: self._layout.command_size]
+        return self._clipped_entry.Eval(context)[: self._command_size]
 
     def _calc_body_wrench(self, context: Context, output: BasicVector) -> None:
         if self._gimbaled:
@@ -148,4 +157,4 @@ class ThrusterBank(LeafSystem):
         output.SetAtIndex(0, float(mdot))
 
     def _calc_command_clipped(self, context: Context, output: BasicVector) -> None:
-        output.SetFromVector(self._clipped_entry.Eval(context)[self._layout.command_size :])
+        output.SetFromVector(self._clipped_entry.Eval(context)[self._command_size :])

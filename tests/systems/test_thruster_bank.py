@@ -76,6 +76,36 @@ def test_fixed_layout_clips_and_reports():
     np.testing.assert_array_equal(clipped, [1, 1, 1, 0, 0, 0, 0, 0])
 
 
+def test_fixed_layout_in_range_commands_take_the_fast_path_unchanged():
+    # PWM on/off patterns, the exact bounds and interior levels: applied bit for bit (the
+    # wrench is the same matrix product on the same vector), nothing reported. A single
+    # out-of-range or non-finite entry still goes through the clipping path.
+    layout = rcs_cube_12()
+    B = wrench_matrix(layout)
+    bank = ThrusterBank(layout)
+    context = bank.CreateDefaultContext()
+    port = bank.get_input_port(0)
+    rng = np.random.default_rng(5)
+    commands = [np.zeros(12), np.ones(12), (rng.uniform(size=12) < 0.4).astype(float)]
+    commands += [rng.uniform(0, 1, 12) for _ in range(5)]
+    for u in commands:
+        port.FixValue(context, u)
+        np.testing.assert_array_equal(bank.GetOutputPort("body_wrench").Eval(context), B @ u)
+        np.testing.assert_array_equal(bank.GetOutputPort("command_clipped").Eval(context), 0.0)
+        mdot = bank.GetOutputPort("propellant_mass_flow").Eval(context)[0]
+        assert mdot == pytest.approx(np.sum(u) * 10.0 / (220.0 * STANDARD_GRAVITY_M_S2), rel=RTOL)
+    for bad, applied in ((np.inf, 1.0), (-np.inf, 0.0), (1.5, 1.0), (-1e-3, 0.0)):
+        u = np.full(12, 0.5)
+        u[7] = bad
+        port.FixValue(context, u)
+        expected = np.full(12, 0.5)
+        expected[7] = applied
+        np.testing.assert_array_equal(bank.GetOutputPort("body_wrench").Eval(context), B @ expected)
+        np.testing.assert_array_equal(
+            bank.GetOutputPort("command_clipped").Eval(context), np.eye(12)[7]
+        )
+
+
 def test_gimbaled_layout_feasible_forces_pass_unchanged():
     layout = gimbaled_cuboid_8()
     bank = ThrusterBank(layout)
