@@ -195,6 +195,7 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
             )
             connect(duty, pwm.GetInputPort("thruster_duty"))
             command = pwm.GetOutputPort("thruster_on")
+            log("thruster_delivered_duty", pwm.GetOutputPort("delivered_duty"))
         else:
             command = duty
         connect(command, bank.GetInputPort("thruster_command"))
@@ -300,6 +301,8 @@ def _collect_log(diagram, context, handles: DiagramHandles, scenario: Scenario) 
     log["thruster_duty"] = data.get("thruster_duty", zeros)
     log["thruster_on"] = data.get("thruster_on", zeros)
     log["command_clipped"] = data.get("command_clipped", zeros)
+    # Without PWM the duty is applied as throttle: delivered equals commanded.
+    log["thruster_delivered_duty"] = data.get("thruster_delivered_duty", log["thruster_duty"])
     log["body_wrench"] = data.get("body_wrench", np.zeros((count, 6)))
     for key in ("body_wrench_desired", "hold_point_L", "reference_L"):
         if key in data:
@@ -307,7 +310,7 @@ def _collect_log(diagram, context, handles: DiagramHandles, scenario: Scenario) 
     return log
 
 
-def _summary(log: dict, scenario: Scenario, handles: DiagramHandles) -> dict:
+def _summary(log: dict, scenario: Scenario) -> dict:
     """Metrics of a finished run (see README, 'Outputs')."""
     mass0, mass = scenario.chaser.mass_kg, log["chaser_mass_kg"][-1]
     isp = scenario.thrusters.isp_s
@@ -377,7 +380,7 @@ def simulate(scenario: Scenario, meshcat=None) -> SimulationResult:
         meshcat.PublishRecording()
     context = simulator.get_context()
     log = _collect_log(diagram, context, handles, scenario)
-    summary = {"status": status, **_summary(log, scenario, handles)}
+    summary = {"status": status, **_summary(log, scenario)}
     integ = simulator.get_integrator()
     summary.update(
         wall_time_s=finished - built,

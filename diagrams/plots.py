@@ -76,6 +76,7 @@ _SHAPES = {
     "q_IL": 4,
     "thruster_duty": -1,
     "thruster_on": -1,
+    "thruster_delivered_duty": -1,
     "body_wrench": 6,
     "propellant_kg": None,
     "separation_m": None,
@@ -453,7 +454,10 @@ def _figure_thrust(log: _Log, title: str) -> Figure | None:
 
 def _figure_duty(log: _Log, title: str) -> Figure | None:
     duty = log.get("thruster_duty")
-    on = log.get("thruster_on")
+    # Samples of thruster_on taken slower than the PWM slots alias with the pulse pattern (a
+    # log at period boundaries sees only the last slot): prefer the per-period delivered duty.
+    delivered = log.get("thruster_delivered_duty")
+    on = delivered if _has_finite(delivered) else log.get("thruster_on")
     duty = duty if _has_finite(duty) else None
     on = on if _has_finite(on) else None
     if duty is None and on is None:
@@ -483,15 +487,23 @@ def _figure_duty(log: _Log, title: str) -> Figure | None:
             if kind == "duty":
                 label = "mean duty [-]" if averaged else "duty [-]"
                 _heatmap(fig, ax, fig.add_subplot(gs[i, 1]), edges, cells, label, "viridis")
+            elif delivered is not None:
+                _heatmap(
+                    fig, ax, fig.add_subplot(gs[i, 1]), edges, cells, "delivered duty [-]", "Greys"
+                )
             else:
                 label = "fraction on [-]" if averaged else "on (1) / off (0)"
                 _heatmap(fig, ax, fig.add_subplot(gs[i, 1]), edges, cells, label, "Greys")
-        ax.set_title(
-            f"duty cycle per thruster ({n} thrusters)"
-            if kind == "duty"
-            else f"on/off pattern (on-time fraction {np.nanmean(values):.2f})",
-            fontsize=10,
-        )
+        if kind == "duty":
+            panel_title = f"commanded duty cycle per thruster ({n} thrusters)"
+        elif delivered is not None:
+            panel_title = (
+                "delivered by PWM: ON slots per period / subdivisions "
+                f"(mean {np.nanmean(values):.3f})"
+            )
+        else:
+            panel_title = f"on/off pattern (on-time fraction {np.nanmean(values):.2f})"
+        ax.set_title(panel_title, fontsize=10)
     for ax in axes[:-1]:
         ax.tick_params(labelbottom=False)
     axes[-1].set_xlabel(log.t_label)

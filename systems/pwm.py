@@ -37,6 +37,9 @@ class PwmModulator(LeafSystem):
 
     Output ports:
         thruster_on (n): 1.0 for ON, 0.0 for OFF, constant over each slot.
+        delivered_duty (n): ON slots of the current period / N, the duty actually delivered
+            (what a log sampled slower than the slots should show: samples of thruster_on
+            alias with the pulse pattern).
 
     Discrete state (one group, size 2n + 1): [remainder e (n, slots); ON-slot count m of the
     current period (n); index of the current slot (1)].
@@ -89,6 +92,12 @@ class PwmModulator(LeafSystem):
             self._calc_thruster_on,
             prerequisites_of_calc={self.discrete_state_ticket(self._state_index)},
         )
+        self.DeclareVectorOutputPort(
+            "delivered_duty",
+            self._n,
+            self._calc_delivered_duty,
+            prerequisites_of_calc={self.discrete_state_ticket(self._state_index)},
+        )
 
     @property
     def slot_period_s(self) -> float:
@@ -130,3 +139,7 @@ class PwmModulator(LeafSystem):
         state = context.get_discrete_state(self._state_index).get_value()
         n = self._n
         output.SetFromVector((state[-1] < state[n : 2 * n]).astype(float))  # leading edge
+
+    def _calc_delivered_duty(self, context: Context, output: BasicVector) -> None:
+        state = context.get_discrete_state(self._state_index).get_value()
+        output.SetFromVector(state[self._n : 2 * self._n] / self._N)

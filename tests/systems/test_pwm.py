@@ -97,7 +97,7 @@ def test_first_period_is_leading_edge_and_duty_is_sampled_at_period_start_only()
     source = builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(breaks, samples)))
     pwm = builder.AddSystem(PwmModulator(1, T, 10))
     builder.Connect(source.get_output_port(), pwm.get_input_port())
-    logger = LogVectorOutput(pwm.get_output_port(), builder, pwm.slot_period_s)
+    logger = LogVectorOutput(pwm.GetOutputPort("thruster_on"), builder, pwm.slot_period_s)
     simulator = Simulator(builder.Build())
     simulator.AdvanceTo(2 * T)
     on = logger.FindLog(simulator.get_context()).data()[0, 1:21]
@@ -128,3 +128,27 @@ def test_min_on_time_is_respected_and_drift_stays_bounded():
     # Without the limit the same duties would produce short pulses: the test is not vacuous.
     free = _simulate(duties, N).reshape(periods, N, 4).sum(axis=1)
     assert np.any((free > 0) & (free < M))
+
+
+def test_delivered_duty_equals_on_slots_of_each_period():
+    """delivered_duty, read once per period, is the ON-slot count of that period over N."""
+    rng = np.random.default_rng(7)
+    n, subdivisions, num_periods = 3, 10, 40
+    duties = rng.uniform(0.0, 1.0, size=(num_periods, n))
+    on = _simulate(duties, subdivisions)  # slots x n, independent evidence of the pulses
+    on_slots_per_period = on.reshape(num_periods, subdivisions, n).sum(axis=1)
+
+    builder = DiagramBuilder()
+    breaks = (np.arange(num_periods + 1) - 0.5) * T
+    samples = np.vstack([duties, duties[-1:]]).T
+    source = builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(breaks, samples)))
+    pwm = builder.AddSystem(PwmModulator(n, T, subdivisions))
+    builder.Connect(source.get_output_port(), pwm.GetInputPort("thruster_duty"))
+    simulator = Simulator(builder.Build())
+    pwm_context = pwm.GetMyContextFromRoot(simulator.get_mutable_context())
+    delivered = []
+    for k in range(num_periods):
+        simulator.AdvanceTo(k * T + 0.5 * pwm.slot_period_s)  # inside period k
+        delivered.append(pwm.GetOutputPort("delivered_duty").Eval(pwm_context).copy())
+    # Exact: both are integers over N computed from the same state machine.
+    np.testing.assert_array_equal(np.array(delivered) * subdivisions, on_slots_per_period)
