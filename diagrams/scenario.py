@@ -222,6 +222,13 @@ def _inertia(values, field: str) -> None:
         raise ScenarioError(field, str(error)) from None
 
 
+def _rigid_body(config, prefix: str) -> None:
+    """Checks the inertia and box size shared by ChaserConfig and TargetConfig."""
+    _inertia(config.inertia_kg_m2, f"{prefix}.inertia_kg_m2")
+    size = _vector(config.size_m, f"{prefix}.size_m")
+    _require(bool(np.all(size > 0)), f"{prefix}.size_m", "edge lengths must be positive")
+
+
 def validate_scenario(scenario: Scenario) -> None:
     """Raises ScenarioError naming the first invalid field of the scenario."""
     orbit = scenario.orbit
@@ -240,12 +247,7 @@ def validate_scenario(scenario: Scenario) -> None:
     _vector(chaser.rpy_LC_deg, "chaser.rpy_LC_deg")
     _vector(chaser.w_IC_C_deg_s, "chaser.w_IC_C_deg_s")
     _positive(chaser.mass_kg, "chaser.mass_kg")
-    _inertia(chaser.inertia_kg_m2, "chaser.inertia_kg_m2")
-    _require(
-        bool(np.all(_vector(chaser.size_m, "chaser.size_m") > 0)),
-        "chaser.size_m",
-        "edge lengths must be positive",
-    )
+    _rigid_body(chaser, "chaser")
     _vector(chaser.capture_point_C, "chaser.capture_point_C")
 
     target = scenario.target
@@ -253,12 +255,7 @@ def validate_scenario(scenario: Scenario) -> None:
         _vector(target.q_LT, "target.q_LT", size=4, nonzero=True)
     _vector(target.rpy_LT_deg, "target.rpy_LT_deg")
     _vector(target.w_IT_T_deg_s, "target.w_IT_T_deg_s")
-    _inertia(target.inertia_kg_m2, "target.inertia_kg_m2")
-    _require(
-        bool(np.all(_vector(target.size_m, "target.size_m") > 0)),
-        "target.size_m",
-        "edge lengths must be positive",
-    )
+    _rigid_body(target, "target")
     _vector(target.docking_port_T, "target.docking_port_T")
     _vector(target.docking_axis_T, "target.docking_axis_T", nonzero=True)
     _require(
