@@ -1,9 +1,11 @@
 """Convex polytopes and the Euclidean separation distance between two posed polytopes.
 
 Owns: the ``ConvexPolytope`` description (halfspaces and vertices in the body frame), its
-constructors, and ``separation_distance`` used by the safety monitor. Does not own: meshes for
-visualisation, the differentiable collision metric of the planners (paper 000 Sec. II-B, DCOL's
-inflation factor), or penetration depth.
+constructors (box, convex hull of points, intersection of halfspaces), the soft-capture hulls of
+paper 000 (``soft_capture_target_hull``, ``soft_capture_chaser_hull``), and
+``separation_distance`` used by the safety monitor. Does not own: meshes for visualisation, the
+differentiable collision metric of the planners (paper 000 Sec. II-B, DCOL's inflation factor,
+in ``rpod.models.collision``), or penetration depth.
 
 ``separation_distance`` solves the minimum-distance problem over convex combinations of the
 posed vertices, written as a small second-order cone program,
@@ -25,7 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 from pydrake.math import RotationMatrix
 from pydrake.solvers import ClarabelSolver, MathematicalProgram, SolverOptions
-from scipy.spatial import ConvexHull
+from scipy.optimize import linprog
+from scipy.spatial import ConvexHull, HalfspaceIntersection, QhullError
 
 
 @dataclass(frozen=True)
@@ -83,6 +86,118 @@ class ConvexPolytope:
         hull = ConvexHull(points)
         # hull.equations rows are [n, c] with n . p + c <= 0 inside and |n| = 1.
         return cls(A=hull.equations[:, :3], b=-hull.equations[:, 3], vertices=points[hull.vertices])
+
+    @classmethod
+    def from_halfspaces(cls, A, b) -> "ConvexPolytope":
+        """The bounded polytope ``{p_PQ : A p_PQ <= b}``, its vertices computed by Qhull.
+
+        ``A`` and ``b`` are kept exactly as given (rows need not be unit, redundant rows are
+        kept), so a caller's LP data stay byte-identical. The vertices come from
+        ``scipy.spatial.HalfspaceIntersection`` about the Chebyshev centre (the centre of the
+        largest inscribed ball, found by ``scipy.optimize.linprog``), and are then reduced to the
+        extreme points of their convex hull (Qhull returns one point per dual facet, so a vertex
+        where more than three planes meet, as at a pyramid's apex, would otherwise repeat).
+
+        Args:
+            A: Face normals (m, 3), m >= 4, need not be normalised.
+            b: Offsets (m,) [m].
+
+        Raises:
+            ValueError: If the set is unbounded (the rows of ``A`` do not positively span R^3),
+                empty, or flat (no interior), or the shapes are wrong.
+        """
+        A = np.asarray(A, dtype=float)
+        b = np.asarray(b, dtype=float).reshape(-1)
+        if A.ndim != 2 or A.shape[1] != 3 or b.shape != (A.shape[0],):
+            raise ValueError(f"A must be (m, 3) and b (m,), got {A.shape} and {b.shape}")
+        if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b))):
+            raise ValueError("A and b must be finite")
+        if not halfspaces_are_bounded(A):
+            raise ValueError("the halfspaces A p <= b do not bound a polytope (unbounded set)")
+        # Chebyshev centre: max r s.t. a_i . c + r |a_i| <= b_i; the set is bounded, so r is.
+        row_norms = np.linalg.norm(A, axis=1)
+        lp = linprog(
+            c=[0.0, 0.0, 0.0, -1.0],
+            A_ub=np.column_stack([A, row_norms]),
+            b_ub=b,
+            bounds=[(None, None)] * 3 + [(0.0, None)],
+            method="highs",
+        )
+        if lp.status == 2:
+            raise ValueError("the halfspaces A p <= b are empty (infeasible)")
+        if lp.status != 0 or lp.x[3] <= 1e-9 * max(1.0, float(np.max(np.abs(b)))):
+            raise ValueError("the halfspaces A p <= b have no interior (flat set)")
+        intersection = HalfspaceIntersection(np.column_stack([A, -b]), lp.x[:3])
+        points = intersection.intersections
+        return cls(A=A, b=b, vertices=points[ConvexHull(points).vertices])
+
+
+def halfspaces_are_bounded(A) -> bool:
+    """Whether every non-empty set ``{p : A p <= b}`` is bounded, i.e. ``A d <= 0`` only for d = 0.
+
+    That holds iff the rows of ``A`` positively span R^3, i.e. the origin lies strictly inside
+    the convex hull of the rows (Gordan's alternative), which is what is tested.
+
+    Args:
+        A: Face normals (m, 3).
+    """
+    A = np.asarray(A, dtype=float)
+    norms = np.linalg.norm(A, axis=1)
+    if A.ndim != 2 or A.shape[1] != 3 or A.shape[0] < 4 or np.any(norms == 0.0):
+        return False
+    try:
+        hull = ConvexHull(A / norms[:, None])  # normalised rows: the test is scale-free
+    except QhullError:  # all rows coplanar: a prism without caps, a slab, ...
+        return False
+    # hull.equations rows [n, c], n . y + c <= 0 inside: the origin is interior iff every c < 0.
+    return bool(np.all(hull.equations[:, 3] < -1e-12))
+
+
+# Convex hulls of paper 000's soft-capture bodies, in their body frames (A y <= b, metres), from
+# the authors' public code (RoboticExplorationLab/SoftCapture), as quoted in rpod issue 4. Both
+# contain their body origin (the centre of mass) strictly, as the collision metric requires.
+_SOFT_CAPTURE_TARGET_A = [
+    [0.0, 0.0, 1.0],
+    [0.0, 0.0, -1.0],
+    [0.0, 1.0, 0.0],
+    [-1.0, 3.0, 0.0],
+    [-3.0, -3.6, 0.0],
+    [1.0, 3.0, 0.0],
+    [3.0, -3.6, 0.0],
+]
+_SOFT_CAPTURE_TARGET_B = [1.2, 1.2, 1.2, 4.53, 13.5, 4.53, 13.5]
+_SOFT_CAPTURE_CHASER_A = [
+    [0.0, 0.0, 1.0],
+    [0.0, 0.0, -1.0],
+    [1.0, 0.0, 0.0],
+    [-1.0, 0.0, 0.0],
+    [2.0, 1.0, 0.0],
+    [2.0, -1.0, 0.0],
+    [-2.0, 1.0, 0.0],
+    [-2.0, -1.0, 0.0],
+]
+_SOFT_CAPTURE_CHASER_B = [1.2099, 1.2, 1.2099, 1.2099, 3.6, 3.6, 3.6, 3.6]
+
+
+def soft_capture_target_hull() -> ConvexPolytope:
+    """Paper 000's target hull in frame T: a pentagonal prism, |z| <= 1.2 m, 10 vertices.
+
+    Its cross-section is the pentagon y <= 1.2, -x + 3y <= 4.53, x + 3y <= 4.53,
+    -3x - 3.6y <= 13.5, 3x - 3.6y <= 13.5, with corners (0, -3.75), (+-4.5086, 0.0071) and
+    (+-0.93, 1.2) m (the y <= 1.2 row cuts the apex (0, 1.51) of the two slanted upper rows).
+    The capture point D_t = [0, 0, 2.7] m lies 1.5 m beyond its +z face.
+    """
+    return ConvexPolytope.from_halfspaces(_SOFT_CAPTURE_TARGET_A, _SOFT_CAPTURE_TARGET_B)
+
+
+def soft_capture_chaser_hull() -> ConvexPolytope:
+    """Paper 000's chaser hull in frame C: a hexagonal prism, z in [-1.2, 1.2099] m, 12 vertices.
+
+    Its cross-section is the hexagon |x| <= 1.2099, 2|x| + |y| <= 3.6 (corners at
+    (+-1.2099, +-1.1802) and (0, +-3.6) m). The capture point D_c = [0, 0, 2.7] m lies ~1.49 m
+    beyond its +z face.
+    """
+    return ConvexPolytope.from_halfspaces(_SOFT_CAPTURE_CHASER_A, _SOFT_CAPTURE_CHASER_B)
 
 
 class _DistanceProgram:

@@ -7,8 +7,15 @@ import pytest
 from pydrake.common.eigen_geometry import AngleAxis, Quaternion
 from pydrake.math import RotationMatrix
 from scipy.optimize import lsq_linear
+from scipy.spatial import ConvexHull
 
-from rpod.models.shapes import ConvexPolytope, separation_distance
+from rpod.models.shapes import (
+    ConvexPolytope,
+    halfspaces_are_bounded,
+    separation_distance,
+    soft_capture_chaser_hull,
+    soft_capture_target_hull,
+)
 
 IDENTITY = RotationMatrix()
 ORIGIN = np.zeros(3)
@@ -182,3 +189,85 @@ def test_rejects_bad_shapes():
         ConvexPolytope(A=np.eye(3), b=np.zeros(3), vertices=np.ones((1, 3)))
     with pytest.raises(ValueError, match=r"\(m, 3\)"):
         ConvexPolytope(A=np.eye(2), b=np.zeros(2), vertices=np.zeros((1, 3)))
+
+
+# ---- Halfspace constructor and the paper 000 hulls ---------------------------------------------
+
+
+def _same_point_sets(p, q, atol=1e-12):
+    """True when the rows of p and q are the same points, in any order."""
+    p, q = np.asarray(p), np.asarray(q)
+    if p.shape != q.shape:
+        return False
+    distances = np.linalg.norm(p[:, None, :] - q[None, :, :], axis=2)
+    return bool(np.all(distances.min(axis=1) < atol) and np.all(distances.min(axis=0) < atol))
+
+
+def _polygon_area(xy):
+    """Shoelace area of a polygon given by its corners in order."""
+    x, y = np.asarray(xy).T
+    return 0.5 * abs(x @ np.roll(y, -1) - y @ np.roll(x, -1))
+
+
+def test_from_halfspaces_box_and_redundant_rows():
+    box = ConvexPolytope.box([0.8, 1.2, 0.5])
+    from_planes = ConvexPolytope.from_halfspaces(box.A, box.b)
+    assert _same_point_sets(from_planes.vertices, box.vertices)
+    # A redundant row is kept in (A, b) exactly as given but adds no vertex.
+    A = np.vstack([box.A, [[1.0, 1.0, 0.0]]])
+    b = np.append(box.b, 5.0)
+    with_redundant = ConvexPolytope.from_halfspaces(A, b)
+    assert np.array_equal(with_redundant.A, A) and np.array_equal(with_redundant.b, b)
+    assert _same_point_sets(with_redundant.vertices, box.vertices)
+
+
+def test_from_halfspaces_merges_an_apex_where_four_planes_meet():
+    # Square pyramid: base z >= 0 on [-1, 1]^2, apex (0, 0, 1) on the four slanted faces
+    # +-x + z <= 1, +-y + z <= 1. Qhull reports the apex once per dual facet; it must be kept once.
+    A = [[1, 0, 1], [-1, 0, 1], [0, 1, 1], [0, -1, 1], [0, 0, -1]]
+    pyramid = ConvexPolytope.from_halfspaces(A, [1.0, 1.0, 1.0, 1.0, 0.0])
+    expected = [[1, 1, 0], [1, -1, 0], [-1, 1, 0], [-1, -1, 0], [0, 0, 1]]
+    assert _same_point_sets(pyramid.vertices, expected)
+
+
+def test_soft_capture_target_hull():
+    # Pentagonal prism |z| <= 1.2; its corners solved by hand from pairs of rows, e.g.
+    # x + 3y = 4.53 with 3x - 3.6y = 13.5 gives y = 0.09 / 12.6, x = 4.53 - 3y.
+    hull = soft_capture_target_hull()
+    A = [[0, 0, 1], [0, 0, -1], [0, 1, 0], [-1, 3, 0], [-3, -3.6, 0], [1, 3, 0], [3, -3.6, 0]]
+    assert np.array_equal(hull.A, A)
+    assert np.array_equal(hull.b, [1.2, 1.2, 1.2, 4.53, 13.5, 4.53, 13.5])
+    y_side = 0.09 / 12.6
+    pentagon = [(0.0, -3.75), (4.53 - 3 * y_side, y_side), (0.93, 1.2), (-0.93, 1.2)]
+    pentagon.append((-(4.53 - 3 * y_side), y_side))
+    expected = [(x, y, z) for x, y in pentagon for z in (-1.2, 1.2)]
+    assert _same_point_sets(hull.vertices, expected, atol=1e-12)
+    # Volume from the Qhull hull of the computed vertices against area x height by hand.
+    assert ConvexHull(hull.vertices).volume == pytest.approx(_polygon_area(pentagon) * 2.4)
+    assert np.all(hull.b > 0.0)  # origin strictly inside, as the collision metric needs
+
+
+def test_soft_capture_chaser_hull():
+    # Hexagonal prism z in [-1.2, 1.2099], |x| <= 1.2099, 2|x| + |y| <= 3.6.
+    hull = soft_capture_chaser_hull()
+    assert np.array_equal(hull.b, [1.2099, 1.2, 1.2099, 1.2099, 3.6, 3.6, 3.6, 3.6])
+    y_corner = 3.6 - 2.0 * 1.2099
+    hexagon = [(0.0, 3.6), (1.2099, y_corner), (1.2099, -y_corner), (0.0, -3.6)]
+    hexagon += [(-1.2099, -y_corner), (-1.2099, y_corner)]
+    expected = [(x, y, z) for x, y in hexagon for z in (-1.2, 1.2099)]
+    assert _same_point_sets(hull.vertices, expected, atol=1e-12)
+    assert ConvexHull(hull.vertices).volume == pytest.approx(_polygon_area(hexagon) * 2.4099)
+
+
+def test_from_halfspaces_rejects_unbounded_empty_and_flat_sets():
+    box = ConvexPolytope.box([1.0, 1.0, 1.0])  # rows +x, +y, +z, -x, -y, -z
+    assert halfspaces_are_bounded(box.A)
+    # An uncapped square prism (no z rows) and a box missing its -z face are unbounded.
+    with pytest.raises(ValueError, match="unbounded"):
+        ConvexPolytope.from_halfspaces(box.A[[0, 1, 3, 4]], box.b[[0, 1, 3, 4]])
+    assert not halfspaces_are_bounded(box.A[:5])  # -z missing: open towards -z
+    # x <= -1 and x >= 1: empty; x <= 0 and x >= 0: a flat square with no interior.
+    with pytest.raises(ValueError, match="empty"):
+        ConvexPolytope.from_halfspaces(box.A, [-1.0, 1.0, 1.0, -1.0, 1.0, 1.0])
+    with pytest.raises(ValueError, match="no interior"):
+        ConvexPolytope.from_halfspaces(box.A, [0.0, 1.0, 1.0, 0.0, 1.0, 1.0])
