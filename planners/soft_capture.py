@@ -1,0 +1,466 @@
+"""The soft-capture planner of paper 000: config, result, and the search over the horizon N.
+
+Owns: ``SoftCaptureConfig`` (Table I), ``SoftCapturePlan`` (the typed result), and
+``SoftCapturePlanner``, which predicts nothing itself (it takes a ``TargetPrediction``), builds
+the terminal and docking data from the prediction, keeps one Problem 2 and one Problem 3
+program per horizon length N (built on first use, reused for every later plan), and searches N.
+Does not own: the programs (``soft_capture_socp``), the iteration at one N
+(``soft_capture_scp``), the pointing law (``pointing``), the target prediction
+(``target_prediction``), the independent checker (``plan_check``), or anything that runs in time.
+
+Horizon search (the paper gives no step). N is tried in increasing order, N_min, N_min + step,
+..., always ending with N_max (default step 10: 40, 50, ..., 340, 350), and the first N whose plan
+passes the hard test (alpha_k > 1 at every knot) is returned: the shortest capture found on the
+grid. Why this search: feasibility is not monotone in N (the capture pose turns with the
+tumble, so a longer horizon can fail where a shorter one succeeds), which rules out bisection;
+the paper increments N upward, and its Fig. 9 shows time to capture growing with distance, so the
+shortest success is both the natural answer and the cheapest to reach. A unit step would cost up
+to 311 horizons x (1 + i_max) solves on an infeasible start; step 10 bounds that to 32 horizons
+(each Problem 2 infeasibility is detected by one solve, and Problem 3 is feasible iff Problem 2 is,
+so an infeasible Problem 2 skips the SCP). ``horizon_step`` and ``horizons`` change the grid.
+
+Terminal velocity (14), which chaser point it constrains (``terminal_velocity_point``):
+``"chaser_capture_point"`` (default): the chaser capture point D_c, with the chaser in the
+capture pose and turning with the target, moves with the target capture point,
+``v_N-1 = R_LT (w_LT_T x (D_t - R_y(pi) D_c)) = R_LT (w_LT_T x (D_t + D_c))``, i.e. the chaser
+capture point's velocity equals ``R_LT (w_LT_T x D_t)``. The pointing law gives the same thing
+at the capture pose (its rate is the line-of-sight rate, the target's rate less its spin about
+the capture axis, which does not move the capture point). This is also the speed behind the
+paper's tumble limit ``v_max / |D_c + D_t|``. ``"chaser_center_of_mass"``: the paper's literal
+(14), ``v_N-1 = R_LT (w_LT_T x D_t)``, which leaves the capture points closing at
+``|D_c| / |D_c + D_t|`` (half) of the target capture point's speed.
+``w_LT_T = w_IT_T - R_LT^T [0, 0, n_orbit]`` is the target's rate relative to the rotating LVLH
+frame, ``n_orbit`` the LVLH rate the prediction was made with.
+"""
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from pydrake.common.eigen_geometry import Quaternion
+from pydrake.math import RotationMatrix
+
+from rpod.models.collision import ScalingMetricProgram
+from rpod.models.gravity import mean_motion
+from rpod.models.shapes import soft_capture_chaser_hull, soft_capture_target_hull
+from rpod.planners.pointing import pointing_attitudes
+from rpod.planners.soft_capture_scp import HorizonOutcome, solve_horizon
+from rpod.planners.target_prediction import TargetPrediction, predict_target
+from rpod.planners.soft_capture_socp import SocpData, SoftCaptureSocp
+
+TERMINAL_VELOCITY_POINTS = ("chaser_capture_point", "chaser_center_of_mass")
+_R_Y_PI = np.diag([-1.0, 1.0, -1.0])  # Q_y(180 deg): the capture pose relative to the target
+
+
+@dataclass
+class SoftCaptureConfig:
+    """Paper 000's soft-capture problem data (Table I defaults) and the search settings.
+
+    Attributes:
+        semi_major_axis_m: a, semi-major axis of the target's circular orbit [m]; n = sqrt(mu/a^3).
+        chaser_mass_kg: m_c, chaser mass [kg] (force / m = the CW input acceleration).
+        fuel_weight_gamma: gamma, weight of the L1 fuel term in Problem 3 (Problem 2 uses 1).
+        slack_penalty_psi: psi, exact-penalty weight of the collision slacks s_k in Problem 3.
+        max_thrust_N: U_max, bound on |u_k| (9) [N].
+        max_range_m: r_max, bound on the range lift rho_k (16) [m].
+        max_speed_m_s: v_max, bound on |v_k| (10) [m/s].
+        max_los_rate_rad_s: omega_max, line-of-sight rate bound of the field of view (12) [rad/s].
+        capture_position_tol_m: eps_p, terminal position tolerance (13) [m].
+        capture_speed_tol_m_s: eps_v, terminal velocity tolerance (14) [m/s].
+        docking_knots: N_dock, number of final knots inside the docking cone (11).
+        docking_half_angle_deg: theta_dock, half-angle of the docking cone (11) [deg].
+        alpha_min: Soft collision margin asked of the linearised rows (25); the hard test is 1.
+        p_CDc_C: D_c, chaser capture point from the chaser centre of mass, in C [m]; its
+            direction is the capture axis that the pointing law turns toward the target.
+        p_TDt_T: D_t, target capture point from the target centre of mass, in T [m]; its
+            direction is the docking-cone axis.
+        max_scp_iterations: i_max, most Problem 3 solves per horizon.
+        dt_s: dt, knot spacing [s].
+        min_knots: N_min of the horizon search (Sec. VI-B).
+        max_knots: N_max of the horizon search (Sec. VI-B).
+        horizon_step: Step of the horizon search (module docstring; the paper gives none).
+        terminal_velocity_point: Which chaser point (14) constrains: "chaser_capture_point"
+            (default) or "chaser_center_of_mass" (module docstring).
+        check_tumble_limit: Return "tumble_rate_above_limit" without solving when the initial
+            tumble rate exceeds min(omega_max, v_max / |D_c + D_t|) (Sec. VI-B's envelope).
+    """
+
+    semi_major_axis_m: float = 7738e3
+    chaser_mass_kg: float = 1500.0
+    fuel_weight_gamma: float = 5.0
+    slack_penalty_psi: float = 750.0
+    max_thrust_N: float = 100.0
+    max_range_m: float = 100.0
+    max_speed_m_s: float = 1.5
+    max_los_rate_rad_s: float = 0.2
+    capture_position_tol_m: float = 0.35
+    capture_speed_tol_m_s: float = 0.03
+    docking_knots: int = 5
+    docking_half_angle_deg: float = 30.0
+    alpha_min: float = 1.3
+    p_CDc_C: list[float] = field(default_factory=lambda: [0.0, 0.0, 2.7])
+    p_TDt_T: list[float] = field(default_factory=lambda: [0.0, 0.0, 2.7])
+    max_scp_iterations: int = 15
+    dt_s: float = 1.0
+    min_knots: int = 40
+    max_knots: int = 350
+    horizon_step: int = 10
+    terminal_velocity_point: str = "chaser_capture_point"
+    check_tumble_limit: bool = True
+
+    @property
+    def mean_motion(self) -> float:
+        """n = sqrt(mu / a^3) [rad/s]."""
+        return mean_motion(self.semi_major_axis_m)
+
+    @property
+    def tumble_rate_limit_rad_s(self) -> float:
+        """min(omega_max, v_max / |D_c + D_t|): the paper's applicability limit (Sec. VI-B)."""
+        reach = np.linalg.norm(np.asarray(self.p_TDt_T) - _R_Y_PI @ np.asarray(self.p_CDc_C))
+        return min(self.max_los_rate_rad_s, self.max_speed_m_s / reach)
+
+    def horizon_grid(self) -> list[int]:
+        """The N values the search tries, in order."""
+        grid = list(range(self.min_knots, self.max_knots + 1, self.horizon_step))
+        if grid[-1] != self.max_knots:
+            grid.append(self.max_knots)
+        return grid
+
+    def symbols(self) -> dict:
+        """Table I parameters under their paper symbols (for plan files and reports)."""
+        return {
+            "n": self.mean_motion,
+            "m": self.chaser_mass_kg,
+            "dt": self.dt_s,
+            "gamma": self.fuel_weight_gamma,
+            "psi": self.slack_penalty_psi,
+            "U_max": self.max_thrust_N,
+            "r_max": self.max_range_m,
+            "v_max": self.max_speed_m_s,
+            "omega_max": self.max_los_rate_rad_s,
+            "eps_p": self.capture_position_tol_m,
+            "eps_v": self.capture_speed_tol_m_s,
+            "theta_dock": math.radians(self.docking_half_angle_deg),
+            "N_dock": self.docking_knots,
+            "alpha_min": self.alpha_min,
+            "i_max": self.max_scp_iterations,
+            "D_c": np.asarray(self.p_CDc_C, dtype=float),
+            "D_t": np.asarray(self.p_TDt_T, dtype=float),
+        }
+
+    def validate(self) -> None:
+        """Raises ValueError naming the first bad field."""
+        positive = (
+            "semi_major_axis_m", "chaser_mass_kg", "max_thrust_N", "max_range_m",
+            "max_speed_m_s", "max_los_rate_rad_s", "capture_position_tol_m",
+            "capture_speed_tol_m_s", "dt_s", "slack_penalty_psi", "fuel_weight_gamma",
+        )  # fmt: skip
+        for name in positive:
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ValueError(f"{name}: must be a finite positive number, got {value!r}")
+        if not 0.0 < self.max_los_rate_rad_s * self.dt_s <= math.pi / 2:
+            raise ValueError("max_los_rate_rad_s: omega_max dt must lie in (0, pi/2]")
+        if not 0.0 < self.docking_half_angle_deg < 90.0:
+            raise ValueError("docking_half_angle_deg: must lie in (0, 90)")
+        if not self.alpha_min > 1.0:
+            raise ValueError(f"alpha_min: must exceed 1, got {self.alpha_min}")
+        for name in ("p_CDc_C", "p_TDt_T"):
+            vector = np.asarray(getattr(self, name), dtype=float)
+            if vector.shape != (3,) or not np.all(np.isfinite(vector)) or not vector.any():
+                raise ValueError(f"{name}: must be 3 finite numbers, not all zero")
+        for name in ("docking_knots", "max_scp_iterations", "min_knots", "horizon_step"):
+            if int(getattr(self, name)) != getattr(self, name) or getattr(self, name) < 0:
+                raise ValueError(f"{name}: must be a non-negative integer")
+        if not 2 <= self.min_knots <= self.max_knots:
+            raise ValueError("min_knots, max_knots: need 2 <= min_knots <= max_knots")
+        if self.horizon_step < 1:
+            raise ValueError("horizon_step: must be >= 1")
+        if self.terminal_velocity_point not in TERMINAL_VELOCITY_POINTS:
+            raise ValueError(
+                f"terminal_velocity_point: must be one of {TERMINAL_VELOCITY_POINTS}, "
+                f"got {self.terminal_velocity_point!r}"
+            )
+
+
+@dataclass
+class HorizonAttempt:
+    """One horizon tried by the search.
+
+    Attributes:
+        N: Number of knots.
+        status: The ``HorizonOutcome`` status at this N.
+        reason: Its one-line reason.
+        scp_iterations: Problem 3 solves at this N.
+        solve_time_s: Wall time of each SOCP solve at this N [s].
+    """
+
+    N: int
+    status: str
+    reason: str
+    scp_iterations: int
+    solve_time_s: list[float]
+
+
+@dataclass
+class SoftCapturePlan:
+    """The planner's result. Arrays are those of the returned horizon N.
+
+    On success, the plan at the first horizon that passed. Otherwise the last iterate of the
+    last horizon at which Problem 2 was feasible (for diagnosis; it fails the hard test), or
+    empty arrays (N = 0) when no horizon got that far. Times are from the plan's start.
+
+    Attributes:
+        status: ``"success"``, ``"invalid_input"`` (non-finite start), ``"tumble_rate_above_limit"``,
+            ``"initial_state_in_collision"`` (alpha <= 1 at the start), ``"no_feasible_horizon"``
+            (Problem 2 infeasible at every N tried), or the status of
+            the last horizon tried (``"scp_max_iterations"``, ``"problem2_solver_failure"``,
+            ``"problem3_infeasible"``, ``"problem3_solver_failure"``,
+            ``"collision_metric_failed"``).
+        reason: One line; for solver failures it carries Clarabel's own status word.
+        N: Number of knots of the returned arrays.
+        t: Knot times (N,) [s] from the plan start.
+        x: States (N, 6): ``[p_LC_L, v_LC_L]`` [m, m/s].
+        u: Thrust forces (N-1, 3) in L [N], held over each step.
+        q_LT: Predicted target attitudes (N, 4), (w, x, y, z) of R_LT.
+        w_IT_T: Predicted target rates (N, 3) in T [rad/s].
+        q_LC: Pointing-law chaser attitudes (N, 4), (w, x, y, z) of R_LC.
+        alpha: Collision metric at each knot (N,).
+        rho: Range lift (N,) [m].
+        slack: Collision slacks of the last Problem 3 solve (N,) (zeros after Problem 2).
+        scp_iterations: Problem 3 solves at the returned N.
+        solve_time_s: Wall time of each SOCP solve at the returned N, Problem 2 first [s].
+        cost: Objective value of the last solve at the returned N.
+        fuel_l1_N: sum_k |u_k|_1 [N] (times dt: the L1 impulse).
+        min_alpha: min(alpha) (NaN for an empty plan).
+        attempts: Every horizon tried, in order.
+        total_solve_time_s: Sum of all SOCP solve times over the search [s].
+    """
+
+    status: str
+    reason: str
+    N: int
+    t: np.ndarray
+    x: np.ndarray
+    u: np.ndarray
+    q_LT: np.ndarray
+    w_IT_T: np.ndarray
+    q_LC: np.ndarray
+    alpha: np.ndarray
+    rho: np.ndarray
+    slack: np.ndarray
+    scp_iterations: int
+    solve_time_s: list[float]
+    cost: float
+    fuel_l1_N: float
+    min_alpha: float
+    attempts: list[HorizonAttempt]
+    total_solve_time_s: float
+
+    @property
+    def success(self) -> bool:
+        """True when the plan passed the hard collision test at every knot."""
+        return self.status == "success"
+
+
+def terminal_targets(
+    config: SoftCaptureConfig, R_LT: np.ndarray, w_IT_T: np.ndarray, n_orbit: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """The terminal chaser centre-of-mass position and velocity, eqs. (13) and (14).
+
+    Args:
+        config: The planner config.
+        R_LT: Target attitude (3, 3) at the final knot.
+        w_IT_T: Target inertial rate (3,) in T at the final knot [rad/s].
+        n_orbit: LVLH rate about L's z axis used by the prediction [rad/s].
+
+    Returns:
+        ``(p*, v*)`` in L [m, m/s] (module docstring for which chaser point v* constrains).
+    """
+    D_t = np.asarray(config.p_TDt_T, dtype=float)
+    reach_T = D_t - _R_Y_PI @ np.asarray(config.p_CDc_C, dtype=float)  # D_t + D_c (Table I)
+    w_LT_T = np.asarray(w_IT_T, dtype=float) - R_LT.T @ np.array([0.0, 0.0, n_orbit])
+    lever_T = reach_T if config.terminal_velocity_point == "chaser_capture_point" else D_t
+    return R_LT @ reach_T, R_LT @ np.cross(w_LT_T, lever_T)  # (13), (14)
+
+
+def _rotations(q_wxyz: np.ndarray) -> np.ndarray:
+    return np.array([RotationMatrix(Quaternion(q / np.linalg.norm(q))).matrix() for q in q_wxyz])
+
+
+def _quaternions(R: np.ndarray) -> np.ndarray:
+    return np.array([RotationMatrix(Rk).ToQuaternion().wxyz() for Rk in R])
+
+
+class SoftCapturePlanner:
+    """Paper 000's planner with a cache of programs per horizon length.
+
+    Not thread-safe (the programs hold their data between solves); use one planner per thread
+    or process.
+
+    Args:
+        config: Problem data; validated here (ValueError names the bad field).
+        chaser_hull: Chaser convex hull in C (default: paper 000's hexagonal prism).
+        target_hull: Target convex hull in T (default: paper 000's pentagonal prism).
+    """
+
+    def __init__(self, config: SoftCaptureConfig | None = None, chaser_hull=None, target_hull=None):
+        self.config = config if config is not None else SoftCaptureConfig()
+        self.config.validate()
+        self.chaser_hull = chaser_hull if chaser_hull is not None else soft_capture_chaser_hull()
+        self.target_hull = target_hull if target_hull is not None else soft_capture_target_hull()
+        self._metric = ScalingMetricProgram(self.chaser_hull, self.target_hull)
+        self._programs: dict[int, tuple[SoftCaptureSocp, SoftCaptureSocp]] = {}
+
+    def programs(self, N: int) -> tuple[SoftCaptureSocp, SoftCaptureSocp]:
+        """The (Problem 2, Problem 3) programs for N knots, built on first use."""
+        if N not in self._programs:
+            self._programs[N] = (
+                SoftCaptureSocp(self.config, N, with_collision=False),
+                SoftCaptureSocp(self.config, N, with_collision=True),
+            )
+        return self._programs[N]
+
+    def plan(self, x0_L, prediction, horizons=None, R_LC0=None) -> SoftCapturePlan:
+        """Plans a soft capture from ``x0_L`` against a predicted tumbling target.
+
+        Args:
+            x0_L: Initial chaser state (6,) ``[p_LC_L, v_LC_L]`` [m, m/s].
+            prediction: A ``TargetPrediction`` from the plan's start time t_0 (= now), with
+                knots ``t_0 + k dt`` covering the longest horizon tried, as made by
+                ``predict_for_planner``.
+            horizons: Optional list of N to try, in order (default: ``config.horizon_grid()``).
+            R_LC0: Optional chaser attitude (3, 3) before the plan, for the pointing law.
+
+        Returns:
+            A ``SoftCapturePlan``; never raises on infeasibility or solver failure.
+        """
+        c = self.config
+        x0 = np.asarray(x0_L, dtype=float).reshape(6)
+        grid = list(horizons) if horizons is not None else c.horizon_grid()
+        q_LT_all, w_IT_T_all = _prediction_at_knots(prediction, c.dt_s, max(grid))
+        n_orbit = float(prediction.n_orbit)
+        if not (np.all(np.isfinite(x0)) and np.linalg.norm(x0[:3]) > 0.0):
+            return _empty_plan("invalid_input", f"initial state {x0.tolist()} is not finite "
+                               "or sits at the target's centre", [])  # fmt: skip
+        tumble = float(np.linalg.norm(w_IT_T_all[0]))
+        if c.check_tumble_limit and tumble > c.tumble_rate_limit_rad_s:
+            return _empty_plan(
+                "tumble_rate_above_limit",
+                f"tumble rate {tumble:.4f} rad/s exceeds min(omega_max, v_max / |D_c + D_t|) = "
+                f"{c.tumble_rate_limit_rad_s:.4f} rad/s",
+                [],
+            )
+        R_LT_all = _rotations(q_LT_all)
+        # A start in collision cannot pass the hard test at any N: one LP instead of a search.
+        R_LC_start = pointing_attitudes(x0[None, :3], c.p_CDc_C, R_LC0)[0]
+        alpha0 = self._metric.evaluate(R_LC_start, x0[:3], R_LT_all[0], np.zeros(3)).alpha
+        if not alpha0 > 1.0:
+            return _empty_plan("initial_state_in_collision",
+                               f"alpha at the initial state is {alpha0:.4f} <= 1", [])  # fmt: skip
+        attempts: list[HorizonAttempt] = []
+        last_feasible: HorizonOutcome | None = None  # last N where Problem 2 was feasible
+        for N in grid:
+            p_star, v_star = terminal_targets(c, R_LT_all[N - 1], w_IT_T_all[N - 1], n_orbit)
+            data = SocpData(
+                x0=x0,
+                R_LT_dock=R_LT_all[max(0, N - c.docking_knots) : N],
+                p_terminal_L=p_star,
+                v_terminal_L=v_star,
+            )
+            problem2, problem3 = self.programs(N)
+            outcome = solve_horizon(c, problem2, problem3, data, R_LT_all[:N], self._metric, R_LC0)
+            attempts.append(
+                HorizonAttempt(
+                    N, outcome.status, outcome.reason, outcome.scp_iterations,
+                    list(outcome.solve_time_s),
+                )
+            )  # fmt: skip
+            if outcome.x is not None:
+                last_feasible = outcome
+            if outcome.status == "success":
+                break
+        status, reason = _verdict(grid, attempts, last_feasible)
+        if last_feasible is None:
+            return _empty_plan(status, reason, attempts)
+        chosen, N = last_feasible, last_feasible.N
+        return SoftCapturePlan(
+            status=status,
+            reason=reason,
+            N=N,
+            t=np.arange(N) * c.dt_s,
+            x=chosen.x,
+            u=chosen.u,
+            q_LT=q_LT_all[:N],
+            w_IT_T=w_IT_T_all[:N],
+            q_LC=_quaternions(chosen.R_LC),
+            alpha=chosen.alpha,
+            rho=chosen.rho,
+            slack=chosen.slack,
+            scp_iterations=chosen.scp_iterations,
+            solve_time_s=list(chosen.solve_time_s),
+            cost=chosen.cost,
+            fuel_l1_N=float(np.abs(chosen.u).sum()),
+            min_alpha=float(chosen.alpha.min()),
+            attempts=attempts,
+            total_solve_time_s=float(sum(sum(a.solve_time_s) for a in attempts)),
+        )
+
+
+def _verdict(grid, attempts, last_feasible) -> tuple[str, str]:
+    """The plan's status and reason from the horizons tried."""
+    span = f"{grid[0]}..{grid[-1]}"
+    if attempts and attempts[-1].status == "success":
+        return "success", f"N = {attempts[-1].N}: {attempts[-1].reason}"
+    if last_feasible is None:
+        infeasible = all(a.status == "problem2_infeasible" for a in attempts)
+        status = "no_feasible_horizon" if infeasible else attempts[-1].status
+        reasons = "; ".join(sorted({a.reason for a in attempts}))
+        return status, f"no horizon in {span} gave a plan: {reasons}"
+    return last_feasible.status, (
+        f"no horizon in {span} passed; last feasible N = {last_feasible.N}: {last_feasible.reason}"
+    )
+
+
+def _empty_plan(status: str, reason: str, attempts: list[HorizonAttempt]) -> SoftCapturePlan:
+    return SoftCapturePlan(
+        status=status, reason=reason, N=0, t=np.zeros(0), x=np.zeros((0, 6)),
+        u=np.zeros((0, 3)), q_LT=np.zeros((0, 4)), w_IT_T=np.zeros((0, 3)),
+        q_LC=np.zeros((0, 4)), alpha=np.zeros(0), rho=np.zeros(0), slack=np.zeros(0),
+        scp_iterations=0, solve_time_s=[], cost=float("nan"), fuel_l1_N=0.0,
+        min_alpha=float("nan"), attempts=attempts,
+        total_solve_time_s=float(sum(sum(a.solve_time_s) for a in attempts)),
+    )  # fmt: skip
+
+
+def _prediction_at_knots(prediction, dt: float, N: int) -> tuple[np.ndarray, np.ndarray]:
+    """The prediction's (q_LT, w_IT_T) at the knots t_k = t_0 + k dt, k < N (t_0 = its start).
+
+    Raises:
+        ValueError: If the prediction's own knots are not ``k dt`` for k < N (a programming
+            error: make it with ``predict_for_planner``).
+    """
+    t = np.asarray(prediction.t, dtype=float)
+    expected = np.arange(N) * dt
+    if len(t) < N or not np.allclose(t[:N] - t[0], expected, rtol=0.0, atol=1e-9 * dt * N):
+        raise ValueError(
+            f"the target prediction must have knots t_0 + k dt (dt = {dt}) for k < {N}; "
+            f"got {len(t)} knots spanning {t[-1] - t[0] if len(t) else None} s"
+        )
+    return np.asarray(prediction.q_LT, dtype=float)[:N], np.asarray(prediction.w_IT_T)[:N]
+
+
+def predict_for_planner(
+    config: SoftCaptureConfig, q_LT0, w_IT_T0, inertia, t0_s: float = 0.0
+) -> TargetPrediction:
+    """The target prediction the planner expects: knots ``t0 + k dt``, k < N_max, L turning at n.
+
+    Args:
+        config: The planner config (dt, N_max, orbit).
+        q_LT0: Estimated quaternion (4,) (w, x, y, z) of ``R_LT`` at t0.
+        w_IT_T0: Estimated inertial body rate (3,) of the target, in T, at t0 [rad/s].
+        inertia: Target inertia (3, 3) in T [kg m^2] (paper 000 eq. (27) in its examples).
+        t0_s: Time of the estimate and of the plan's start [s].
+    """
+    t_knots = t0_s + np.arange(config.max_knots) * config.dt_s
+    return predict_target(q_LT0, w_IT_T0, inertia, t_knots, n_orbit=config.mean_motion)
