@@ -7,12 +7,19 @@ Does not own: files and the command line (rpod.scenarios, rpod.diagrams.outputs)
 
 Signal flow of a controlled scenario (one period of delay between the controller's sample and
 the thrusters, as on a real flight computer: the PWM latches the duty computed at the previous
-sample):
+sample). The controller is a HoldPointController or a SoftCaptureController:
 
-    OrbitalDynamics --relative_state_L, q_IL, w_IL_L--> HoldPointController
-    RigidBodyAttitude (target, chaser) --attitude--> HoldPointController
-    HoldPointController --body_wrench_desired--> WrenchAllocator --thruster_duty--> PwmModulator
+    OrbitalDynamics --relative_state_L, q_IL, w_IL_L--> controller
+    RigidBodyAttitude (target, chaser) --attitude--> controller
+    controller --body_wrench_desired--> WrenchAllocator --thruster_duty--> PwmModulator
     PwmModulator --thruster_on--> ThrusterBank --body_wrench--> OrbitalDynamics, chaser attitude
+
+Soft capture (controller type 'soft_capture'): the summary gains `capture` (the capture
+criterion, `capture_outcome`) and `plans` (every planner call of the controller); the log gains
+`controller_mode`, `planner_status`, `force_feedforward_L`, `reference_L` (the planned position
+at each sample) and the accepted plans' knots, `plan_knots_t` (P, N_max), `plan_knots_p_LC_L`
+and `plan_knots_v_LC_L` (P, N_max, 3), `plan_knots_u_L` (P, N_max - 1, 3), NaN-padded: one row
+per accepted plan, not a time series.
 """
 
 import dataclasses
@@ -26,7 +33,11 @@ from pydrake.systems.primitives import ConstantVectorSource, Demultiplexer, LogV
 
 from rpod.models import thrusters as presets
 from rpod.models.frames import quaternion_wxyz, rotation_from_rpy_deg, rotation_from_wxyz
-from rpod.models.shapes import ConvexPolytope
+from rpod.models.shapes import (
+    ConvexPolytope,
+    soft_capture_chaser_hull,
+    soft_capture_target_hull,
+)
 from rpod.models.thrusters import STANDARD_GRAVITY_M_S2, ThrusterLayout
 from rpod.systems.allocator import WrenchAllocator
 from rpod.systems.hold_point_controller import HoldPointController
@@ -34,6 +45,8 @@ from rpod.systems.orbital_dynamics import OrbitalDynamics
 from rpod.systems.pwm import PwmModulator
 from rpod.systems.rigid_body_attitude import RigidBodyAttitude
 from rpod.systems.safety_monitor import SafetyMonitor
+from rpod.systems.soft_capture_controller import MODES as CONTROLLER_MODES
+from rpod.systems.soft_capture_controller import PLANNER_STATUSES, SoftCaptureController
 from rpod.systems.thruster_bank import ThrusterBank
 
 from rpod.diagrams.scenario import Scenario, validate_scenario
@@ -54,6 +67,22 @@ def make_thruster_layout(scenario: Scenario) -> ThrusterLayout:
     raise ValueError(f"unknown thruster layout '{config.layout}'")
 
 
+def body_polytopes(scenario: Scenario) -> tuple[ConvexPolytope, ConvexPolytope]:
+    """The true (chaser in C, target in T) polytopes the scenario's `shape` fields name."""
+    chaser, target = scenario.chaser, scenario.target
+    chaser_shape = (
+        soft_capture_chaser_hull()
+        if chaser.shape == "soft_capture_chaser"
+        else ConvexPolytope.box(chaser.size_m)
+    )
+    target_shape = (
+        soft_capture_target_hull()
+        if target.shape == "soft_capture_target"
+        else ConvexPolytope.box(target.size_m)
+    )
+    return chaser_shape, target_shape
+
+
 def target_rotation_in_lvlh(scenario: Scenario) -> np.ndarray:
     """R_LT at t = 0: from q_LT when given, else from rpy_LT_deg."""
     target = scenario.target
@@ -70,7 +99,7 @@ class DiagramHandles:
     target_attitude: RigidBodyAttitude
     chaser_attitude: RigidBodyAttitude
     monitor: SafetyMonitor
-    controller: HoldPointController | None
+    controller: HoldPointController | SoftCaptureController | None
     bank: ThrusterBank | None
     loggers: dict  # log key -> VectorLogSink
     layout: ThrusterLayout | None
@@ -125,6 +154,7 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
         loggers[key] = LogVectorOutput(port, builder, period)
 
     layout = bank = controller = None
+    chaser_shape, target_shape = body_polytopes(scenario)
     if scenario.thrusters.enabled:
         layout = make_thruster_layout(scenario)
         bank = builder.AddNamedSystem("thruster_bank", ThrusterBank(layout))
@@ -179,6 +209,24 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
             log("body_wrench_desired", controller.GetOutputPort("body_wrench_desired"))
             log("hold_point_L", controller.GetOutputPort("hold_point_L"))
             log("reference_L", controller.GetOutputPort("reference_L"))
+        elif scenario.controller.type == "soft_capture":
+            controller = builder.AddNamedSystem(
+                "soft_capture_controller",
+                SoftCaptureController(
+                    scenario.controller.soft_capture, J_C, J_T, chaser_shape, target_shape
+                ),
+            )
+            for name, port in sensed.items():
+                connect(port, controller.GetInputPort(name))
+            allocator = builder.AddNamedSystem("wrench_allocator", WrenchAllocator(layout))
+            connect(
+                controller.GetOutputPort("body_wrench_desired"),
+                allocator.GetInputPort("body_wrench_desired"),
+            )
+            duty = allocator.GetOutputPort("thruster_duty")
+            for name in ("body_wrench_desired", "reference_L", "force_feedforward_L",
+                         "controller_mode", "planner_status"):  # fmt: skip
+                log(name, controller.GetOutputPort(name))
         else:
             idle = builder.AddNamedSystem("idle", ConstantVectorSource(np.zeros(layout.count)))
             duty = idle.get_output_port()
@@ -188,7 +236,7 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
                 "pwm",
                 PwmModulator(
                     layout.count,
-                    scenario.controller.hold_point.control_period_s,
+                    scenario.controller.control_period_s(),
                     scenario.thrusters.subdivisions,
                     scenario.thrusters.min_on_slots,
                 ),
@@ -204,8 +252,8 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
     monitor = builder.AddNamedSystem(
         "safety_monitor",
         SafetyMonitor(
-            ConvexPolytope.box(target.size_m),
-            ConvexPolytope.box(chaser.size_m),
+            target_shape,
+            chaser_shape,
             target.docking_port_T,
             target.docking_axis_T,
             math.radians(target.corridor_half_angle_deg),
@@ -237,10 +285,17 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
             docking_port_T=list(target.docking_port_T),
             docking_axis_T=list(target.docking_axis_T),
             corridor_half_angle_deg=target.corridor_half_angle_deg,
+            corridor_length_m=visualization.corridor_length_m,
             publish_period_s=visualization.publish_period_s,
             trail=visualization.trail,
             trail_max_points=visualization.trail_max_points,
             camera_position_L_m=list(visualization.camera_position_L_m),
+            target_vertices_T=(
+                target_shape.vertices.tolist() if target.shape != "box" else []
+            ),
+            chaser_vertices_C=(
+                chaser_shape.vertices.tolist() if chaser.shape != "box" else []
+            ),
         )
         scene = RendezvousScene.AddToBuilder(
             builder,
@@ -251,6 +306,14 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
             sensed["target_attitude"],
             sensed["chaser_attitude"],
         )
+        if isinstance(controller, SoftCaptureController):
+            from rpod.systems.scene import PlannedPathOverlay
+
+            overlay = builder.AddNamedSystem(
+                "scene.planned_path",
+                PlannedPathOverlay(meshcat, visualization.publish_period_s),
+            )
+            connect(controller.GetOutputPort("planned_path"), overlay.GetInputPort("planned_path"))
 
     diagram = builder.Build()
     diagram.set_name(scenario.description or "rpod")
@@ -304,10 +367,98 @@ def _collect_log(diagram, context, handles: DiagramHandles, scenario: Scenario) 
     # Without PWM the duty is applied as throttle: delivered equals commanded.
     log["thruster_delivered_duty"] = data.get("thruster_delivered_duty", log["thruster_duty"])
     log["body_wrench"] = data.get("body_wrench", np.zeros((count, 6)))
-    for key in ("body_wrench_desired", "hold_point_L", "reference_L"):
+    for key in ("body_wrench_desired", "hold_point_L", "reference_L", "force_feedforward_L"):
         if key in data:
             log[key] = data[key]
+    for key in ("controller_mode", "planner_status"):
+        if key in data:
+            log[key] = data[key][:, 0].astype(np.int64)
     return log
+
+
+def _json_safe(record: dict) -> dict:
+    """The record with non-finite floats as None (strict JSON has no NaN)."""
+    return {
+        key: None if isinstance(value, float) and not math.isfinite(value) else value
+        for key, value in record.items()
+    }
+
+
+def _plan_knots(records: list[dict], dt: float) -> dict:
+    """`plan_knots_t` (P, N_max), `plan_knots_p_LC_L`, `plan_knots_v_LC_L` (P, N_max, 3) and
+    `plan_knots_u_L` (P, N_max - 1, 3) of the accepted plans, NaN-padded."""
+    accepted = [r for r in records if r["accepted"]]
+    width = max((len(r["x"]) for r in accepted), default=1)
+    t = np.full((len(accepted), width), np.nan)
+    x = np.full((len(accepted), width, 6), np.nan)
+    u = np.full((len(accepted), width - 1, 3), np.nan)
+    for i, record in enumerate(accepted):
+        knots = np.asarray(record["x"], float)
+        t[i, : len(knots)] = record["t_s"] + np.arange(len(knots)) * dt
+        x[i, : len(knots)] = knots
+        u[i, : len(knots) - 1] = np.asarray(record["u"], float)
+    return {"plan_knots_t": t, "plan_knots_p_LC_L": x[..., :3], "plan_knots_v_LC_L": x[..., 3:],
+            "plan_knots_u_L": u}  # fmt: skip
+
+
+def capture_outcome(log: dict, scenario: Scenario) -> dict:
+    """The soft-capture criterion on a run's log (paper 000's eps_p, eps_v; Table I).
+
+    Capture succeeds at the first log sample where the capture points -- the chaser's D_c
+    (`chaser.capture_point_C`, in C) and the target's D_t (`target.docking_port_T`, in T) --
+    are within eps_p of each other and their relative (inertial) speed is within eps_v
+    (`capture_speed_m_s` of the SafetyMonitor), provided the true polytopes never touched
+    before (`separation_m` > 0 at every sample up to and including that one). Contact is
+    checked at the log samples: log at the control period for a run whose verdict matters.
+
+    Returns:
+        {success, reason, time_s, position_error_m, speed_error_m_s, planned_time_s}: the
+        errors at the capture sample, or at the sample closest to meeting both tolerances
+        (least max(position / eps_p, speed / eps_v)) when it failed; `planned_time_s` is the
+        final knot of the last accepted plan (NaN without one).
+    """
+    planner = scenario.controller.soft_capture.planner
+    eps_p, eps_v = planner.capture_position_tol_m, planner.capture_speed_tol_m_s
+    D_c = np.asarray(scenario.chaser.capture_point_C, float)
+    D_t = np.asarray(scenario.target.docking_port_T, float)
+    position_error = np.empty(len(log["t"]))
+    for i, (p_LC_L, q_IL, q_IT, q_IC) in enumerate(
+        zip(log["p_LC_L"], log["q_IL"], log["q_IT"], log["q_IC"])
+    ):
+        R_LI = rotation_from_wxyz(q_IL).T
+        p_E_L = p_LC_L + R_LI @ rotation_from_wxyz(q_IC) @ D_c  # chaser capture point
+        p_D_L = R_LI @ rotation_from_wxyz(q_IT) @ D_t  # target capture point
+        p_DE_L = p_E_L - p_D_L
+        position_error[i] = np.linalg.norm(p_DE_L)
+    speed = np.asarray(log["capture_speed_m_s"], float)
+    separation = np.asarray(log["separation_m"], float)
+    met = np.flatnonzero((position_error <= eps_p) & (speed <= eps_v))
+    contact = np.flatnonzero(~(separation > 0.0))
+    outcome = {"success": False, "reason": "", "time_s": float("nan")}
+    if len(met) and (not len(contact) or contact[0] > met[0]):
+        i = int(met[0])
+        outcome.update(success=True, reason=f"capture points within eps_p = {eps_p} m and "
+                       f"eps_v = {eps_v} m/s with no contact before")  # fmt: skip
+    elif len(contact) and (not len(met) or contact[0] <= met[0]):
+        i = int(contact[0])
+        outcome["reason"] = f"contact: the true polytopes touched at t = {log['t'][i]:.2f} s"
+    else:
+        i = int(np.argmin(np.maximum(position_error / eps_p, speed / eps_v)))
+        if not np.any(position_error <= eps_p):
+            outcome["reason"] = (f"position: the capture points never came within eps_p = "
+                                 f"{eps_p} m (closest {position_error.min():.3f} m)")  # fmt: skip
+        else:
+            within = position_error <= eps_p
+            outcome["reason"] = (
+                f"speed: while within eps_p the capture points' relative speed never fell to "
+                f"eps_v = {eps_v} m/s (least {speed[within].min():.4f} m/s)"
+            )
+    outcome.update(
+        time_s=float(log["t"][i]),
+        position_error_m=float(position_error[i]),
+        speed_error_m_s=float(speed[i]),
+    )
+    return outcome
 
 
 def _summary(log: dict, scenario: Scenario) -> dict:
@@ -381,6 +532,42 @@ def simulate(scenario: Scenario, meshcat=None) -> SimulationResult:
     context = simulator.get_context()
     log = _collect_log(diagram, context, handles, scenario)
     summary = {"status": status, **_summary(log, scenario)}
+    if isinstance(handles.controller, SoftCaptureController):
+        records = handles.controller.plan_records(
+            handles.controller.GetMyContextFromRoot(context)
+        )
+        dt = scenario.controller.soft_capture.planner.dt_s
+        log.update(_plan_knots(records, dt))
+        capture = capture_outcome(log, scenario)
+        accepted = [r for r in records if r["accepted"]]
+        capture["planned_time_s"] = (
+            accepted[-1]["t_s"] + (accepted[-1]["N"] - 1) * dt if accepted else float("nan")
+        )
+        if not accepted and not capture["success"]:
+            last = records[-1] if records else {"status": "none", "reason": "no planner call"}
+            capture["reason"] = f"no plan: {last['status']}: {last['reason']}"
+        summary["capture"] = _json_safe(capture)
+        summary["plans"] = [
+            _json_safe({key: value for key, value in r.items() if key not in ("x", "u")})
+            for r in records
+        ]
+        summary["planner_status"] = records[-1]["status"] if records else "none"
+        # Flat scalars for campaign reports (which summarise top-level numbers and booleans).
+        first = records[0] if records else {}
+        summary.update(_json_safe({
+            "capture_success": bool(capture["success"]),
+            "capture_time_s": capture["time_s"],
+            "capture_position_error_m": capture["position_error_m"],
+            "capture_speed_error_m_s": capture["speed_error_m_s"],
+            "initial_plan_success": bool(first.get("accepted", False)),
+            "initial_plan_N": int(first.get("N", 0)),
+            "initial_plan_scp_iterations": int(first.get("scp_iterations", 0)),
+            "initial_plan_solve_time_s": float(first.get("total_solve_time_s", 0.0)),
+            "replans_accepted": sum(1 for r in records[1:] if r["accepted"]),
+            "replans_failed": sum(1 for r in records[1:] if not r["accepted"]),
+        }))  # fmt: skip
+        summary["planner_status_codes"] = list(PLANNER_STATUSES)
+        summary["controller_mode_codes"] = list(CONTROLLER_MODES)
     integ = simulator.get_integrator()
     summary.update(
         wall_time_s=finished - built,

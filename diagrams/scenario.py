@@ -13,13 +13,16 @@ import math
 
 import numpy as np
 
-from rpod.models.gravity import GRAVITY_MODELS, MIN_ALTITUDE_M
+from rpod.models.gravity import GRAVITY_MODELS, MIN_ALTITUDE_M, R_EARTH_M
 from rpod.models.rigid_body import validate_inertia
 from rpod.systems.hold_point_controller import HoldPointControllerConfig
 from rpod.systems.orbital_dynamics import OrbitConfig
+from rpod.systems.soft_capture_controller import SoftCaptureControllerConfig
 
 THRUSTER_LAYOUTS = ("rcs_cube_12", "planar_8", "gimbaled_cuboid_8")
-CONTROLLERS = ("hold_point", "none")
+CONTROLLERS = ("hold_point", "soft_capture", "none")
+CHASER_SHAPES = ("box", "soft_capture_chaser")
+TARGET_SHAPES = ("box", "soft_capture_target")
 INTEGRATION_SCHEMES = ("runge_kutta2", "runge_kutta3", "runge_kutta5", "bogacki_shampine3")
 
 
@@ -47,8 +50,12 @@ class ChaserConfig:
         w_IC_C_deg_s: initial angular velocity in the chaser body frame [deg/s].
         mass_kg: wet mass at t = 0 (the truth draws propellant from it).
         inertia_kg_m2: inertia about the centre of mass in C (constant) [kg m^2].
-        size_m: box edge lengths along the C axes, for the separation check and the scene [m].
+        size_m: box edge lengths along the C axes, for the separation check and the scene [m]
+            (shape 'box').
         capture_point_C: the chaser's capture point (e.g. its docking mechanism) in C [m].
+        shape: the true geometry, for the separation check, the scene and a soft-capture
+            planner: 'box' (size_m) or 'soft_capture_chaser' (paper 000's hexagonal prism,
+            rpod.models.shapes.soft_capture_chaser_hull; size_m is then unused).
     """
 
     p_LC_L: list[float] = dataclasses.field(default_factory=lambda: [0.0, -30.0, 0.0])
@@ -59,6 +66,7 @@ class ChaserConfig:
     inertia_kg_m2: list[list[float]] = dataclasses.field(default_factory=_diag([190, 190, 190]))
     size_m: list[float] = dataclasses.field(default_factory=lambda: [1.5, 1.5, 1.5])
     capture_point_C: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.75])
+    shape: str = "box"
 
 
 @dataclasses.dataclass
@@ -72,10 +80,13 @@ class TargetConfig:
         w_IT_T_deg_s: initial angular velocity in the target body frame [deg/s].
         inertia_kg_m2: inertia about the centre of mass in T; any symmetric positive-definite
             matrix that satisfies the triangle inequality (non-diagonal allowed) [kg m^2].
-        size_m: box edge lengths along the T axes [m].
+        size_m: box edge lengths along the T axes [m] (shape 'box').
         docking_port_T: the target's capture point in T [m].
         docking_axis_T: the docking axis in T (normalised on use).
         corridor_half_angle_deg: half-angle of the approach corridor about the docking axis.
+        shape: the true geometry, for the separation check, the scene and a soft-capture
+            planner: 'box' (size_m) or 'soft_capture_target' (paper 000's pentagonal prism,
+            rpod.models.shapes.soft_capture_target_hull; size_m is then unused).
     """
 
     q_LT: list[float] = dataclasses.field(default_factory=list)
@@ -88,6 +99,7 @@ class TargetConfig:
     docking_port_T: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 1.0])
     docking_axis_T: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 1.0])
     corridor_half_angle_deg: float = 30.0
+    shape: str = "box"
 
 
 @dataclasses.dataclass
@@ -120,14 +132,30 @@ class ControllerConfig:
     """Which controller flies the chaser.
 
     Args:
-        type: 'hold_point' (track the hold point on the docking axis) or 'none' (coast).
+        type: 'hold_point' (track the hold point on the docking axis), 'soft_capture' (plan
+            and fly paper 000's soft capture) or 'none' (coast).
         hold_point: gains and geometry of the hold-point law.
+        soft_capture: the soft-capture planner's data (Table I) and closed-loop settings.
+            Its planner must agree with the scenario: semi_major_axis_m with the orbit,
+            chaser_mass_kg with the chaser, p_CDc_C with chaser.capture_point_C, p_TDt_T with
+            target.docking_port_T and docking_axis_T, docking_half_angle_deg with
+            target.corridor_half_angle_deg. A tumble faster than the method's limit is not
+            a config error: the planner reports it at run time and the controller falls back.
     """
 
     type: str = "hold_point"
     hold_point: HoldPointControllerConfig = dataclasses.field(
         default_factory=HoldPointControllerConfig
     )
+    soft_capture: SoftCaptureControllerConfig = dataclasses.field(
+        default_factory=SoftCaptureControllerConfig
+    )
+
+    def control_period_s(self) -> float:
+        """The sample period of the active controller (the PWM period)."""
+        if self.type == "soft_capture":
+            return self.soft_capture.control_period_s
+        return self.hold_point.control_period_s
 
 
 @dataclasses.dataclass
@@ -155,6 +183,7 @@ class VisualizationConfig:
         trail: draw the chaser's trail.
         trail_max_points: trail markers kept (older ones are reused).
         camera_position_L_m: camera position in LVLH, looking at the target [m].
+        corridor_length_m: length of the drawn approach corridor (docking cone) [m].
     """
 
     publish_period_s: float = 0.5
@@ -163,6 +192,7 @@ class VisualizationConfig:
     camera_position_L_m: list[float] = dataclasses.field(
         default_factory=lambda: [25.0, -40.0, 18.0]
     )
+    corridor_length_m: float = 20.0
 
 
 @dataclasses.dataclass
@@ -222,11 +252,63 @@ def _inertia(values, field: str) -> None:
         raise ScenarioError(field, str(error)) from None
 
 
-def _rigid_body(config, prefix: str) -> None:
-    """Checks the inertia and box size shared by ChaserConfig and TargetConfig."""
+def _rigid_body(config, prefix: str, shapes: tuple[str, ...]) -> None:
+    """Checks the inertia, shape and box size shared by ChaserConfig and TargetConfig."""
     _inertia(config.inertia_kg_m2, f"{prefix}.inertia_kg_m2")
+    _require(config.shape in shapes, f"{prefix}.shape", f"must be one of {shapes}, "
+             f"got '{config.shape}'")  # fmt: skip
     size = _vector(config.size_m, f"{prefix}.size_m")
     _require(bool(np.all(size > 0)), f"{prefix}.size_m", "edge lengths must be positive")
+
+
+def _same_vector(values, expected, field: str, what: str) -> None:
+    difference = np.asarray(values, float) - np.asarray(expected, float)
+    _require(
+        bool(np.all(np.abs(difference) <= 1e-9)),
+        field,
+        f"must equal {what} = {list(map(float, expected))}, got {list(map(float, values))}",
+    )
+
+
+def _validate_soft_capture(scenario: Scenario) -> None:
+    """Checks the soft-capture block and its agreement with the rest of the scenario."""
+    config = scenario.controller.soft_capture
+    prefix = "controller.soft_capture."
+    try:
+        config.validate()
+    except ValueError as error:
+        field, _, message = str(error).partition(": ")
+        raise ScenarioError(prefix + field, message) from None
+    planner = config.planner
+    orbit = scenario.orbit
+    _require(orbit.gravity != "free_space", "orbit.gravity",
+             "the soft-capture planner needs an orbit (CW model): not free_space")  # fmt: skip
+    a = R_EARTH_M + orbit.altitude_m
+    _require(
+        abs(planner.semi_major_axis_m - a) <= 1.0,
+        prefix + "planner.semi_major_axis_m",
+        f"must equal R_earth + orbit.altitude_m = {a:.1f} m (the planner's CW model is about "
+        f"the scenario's orbit), got {planner.semi_major_axis_m}",
+    )
+    chaser, target = scenario.chaser, scenario.target
+    _require(
+        abs(planner.chaser_mass_kg - chaser.mass_kg) <= 1e-9 * chaser.mass_kg,
+        prefix + "planner.chaser_mass_kg",
+        f"must equal chaser.mass_kg = {chaser.mass_kg}, got {planner.chaser_mass_kg}",
+    )
+    _same_vector(chaser.capture_point_C, planner.p_CDc_C, "chaser.capture_point_C",
+                 prefix + "planner.p_CDc_C")  # fmt: skip
+    _same_vector(target.docking_port_T, planner.p_TDt_T, "target.docking_port_T",
+                 prefix + "planner.p_TDt_T")  # fmt: skip
+    D_t = np.asarray(planner.p_TDt_T, float)
+    axis = np.asarray(target.docking_axis_T, float)
+    _same_vector(axis / np.linalg.norm(axis), D_t / np.linalg.norm(D_t), "target.docking_axis_T",
+                 "the direction of " + prefix + "planner.p_TDt_T")  # fmt: skip
+    _require(
+        abs(target.corridor_half_angle_deg - planner.docking_half_angle_deg) <= 1e-9,
+        "target.corridor_half_angle_deg",
+        f"must equal {prefix}planner.docking_half_angle_deg = {planner.docking_half_angle_deg}",
+    )
 
 
 def validate_scenario(scenario: Scenario) -> None:
@@ -247,7 +329,7 @@ def validate_scenario(scenario: Scenario) -> None:
     _vector(chaser.rpy_LC_deg, "chaser.rpy_LC_deg")
     _vector(chaser.w_IC_C_deg_s, "chaser.w_IC_C_deg_s")
     _positive(chaser.mass_kg, "chaser.mass_kg")
-    _rigid_body(chaser, "chaser")
+    _rigid_body(chaser, "chaser", CHASER_SHAPES)
     _vector(chaser.capture_point_C, "chaser.capture_point_C")
 
     target = scenario.target
@@ -255,7 +337,7 @@ def validate_scenario(scenario: Scenario) -> None:
         _vector(target.q_LT, "target.q_LT", size=4, nonzero=True)
     _vector(target.rpy_LT_deg, "target.rpy_LT_deg")
     _vector(target.w_IT_T_deg_s, "target.w_IT_T_deg_s")
-    _rigid_body(target, "target")
+    _rigid_body(target, "target", TARGET_SHAPES)
     _vector(target.docking_port_T, "target.docking_port_T")
     _vector(target.docking_axis_T, "target.docking_axis_T", nonzero=True)
     _require(
@@ -308,6 +390,11 @@ def validate_scenario(scenario: Scenario) -> None:
             _positive(getattr(gains, name), prefix + name)
         _require(gains.hold_distance_m >= 0, prefix + "hold_distance_m", "must not be negative")
         _vector(gains.capture_axis_C, prefix + "capture_axis_C", nonzero=True)
+    if controller.type == "soft_capture":
+        _require(
+            thrusters.enabled, "thrusters.enabled", "the soft_capture controller needs thrusters"
+        )
+        _validate_soft_capture(scenario)
 
     _positive(scenario.duration_s, "duration_s")
     _positive(scenario.log_period_s, "log_period_s")
@@ -320,6 +407,7 @@ def validate_scenario(scenario: Scenario) -> None:
     _positive(integrator.accuracy, "integrator.accuracy")
     _positive(integrator.max_step_s, "integrator.max_step_s")
     _positive(scenario.visualization.publish_period_s, "visualization.publish_period_s")
+    _positive(scenario.visualization.corridor_length_m, "visualization.corridor_length_m")
     _require(
         scenario.visualization.trail_max_points >= 1,
         "visualization.trail_max_points",

@@ -12,6 +12,9 @@ Two drawing paths are used (the split is deliberate):
 
 - Bodies (option a). The target box and the chaser box, each with a small body-axes triad, are
   registered with a SceneGraph (one source, frames "target" and "chaser", illustration role).
+  A body given by polytope vertices (`target_vertices_T`, `chaser_vertices_C`, e.g. paper 000's
+  soft-capture hulls) is registered instead as a `Convex` shape made from an in-memory OBJ of
+  its convex hull (faces from scipy's Qhull, wound outward), which Meshcat draws as that hull.
   `RendezvousScene` outputs their poses as a FramePoseVector and a `MeshcatVisualizer` draws them
   under `/drake/<prefix>/bodies`. Its transforms carry the simulation time, so they are recorded.
 - Overlays (option b), drawn directly with Meshcat under `/drake/<prefix>/overlay` from this
@@ -30,6 +33,11 @@ Two drawing paths are used (the split is deliberate):
     sliding across the scene. The trail therefore shows the last
     `trail_max_points * trail_stride * publish_period_s` seconds (200 s with the defaults) and it
     grows in the replay exactly as it did in the simulation.
+
+`PlannedPathOverlay` (a second, optional system) draws a planner's paths under
+`/drake/<prefix>/overlay/plans`: each new plan (a `planned_path` input whose `index` changed)
+becomes a line through its knots plus a point cloud of the knots, hidden in the recording until
+the plan's time and hidden again when the next plan replaces it.
 
 Why the pool: a Meshcat recording animates only transforms and properties of objects that exist
 in the final scene tree; it cannot replay object creation. Pre-allocated, toggled markers make
@@ -50,14 +58,17 @@ simulation (context) at a time. For a recording, call `Meshcat.StartRecording` b
 from dataclasses import dataclass, field
 
 import numpy as np
+from pydrake.common import MemoryFile
 from pydrake.common.eigen_geometry import Quaternion
 from pydrake.common.value import AbstractValue
 from pydrake.geometry import (
     Box,
+    Convex,
     Cylinder,
     FramePoseVector,
     GeometryFrame,
     GeometryInstance,
+    InMemoryMesh,
     MakePhongIllustrationProperties,
     Meshcat,
     MeshcatCone,
@@ -68,7 +79,9 @@ from pydrake.geometry import (
     Sphere,
 )
 from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.perception import BaseField, Fields, PointCloud
 from pydrake.systems.framework import DiagramBuilder, LeafSystem, OutputPort
+from scipy.spatial import ConvexHull
 
 # Colours (r, g, b, a). Axis colours follow the usual x red, y green, z blue.
 TARGET_RGBA = Rgba(0.85, 0.65, 0.20, 1.0)
@@ -78,6 +91,7 @@ DOCKING_AXIS_RGBA = Rgba(1.00, 0.45, 0.00, 1.0)
 CORRIDOR_RGBA = Rgba(0.20, 0.80, 0.40, 0.18)
 CORRIDOR_EDGE_RGBA = Rgba(0.10, 0.55, 0.25, 1.0)
 AXIS_RGBA = (Rgba(0.9, 0.1, 0.1, 1.0), Rgba(0.1, 0.75, 0.1, 1.0), Rgba(0.1, 0.2, 0.9, 1.0))
+PLAN_RGBA = Rgba(0.85, 0.10, 0.60, 1.0)
 
 
 @dataclass
@@ -116,6 +130,11 @@ class SceneConfig:
     # Keep Meshcat's grey gradient background. It is drawn as a finite box, whose faces cut
     # through the view once the camera is some 30 m out; off gives a plain white background.
     meshcat_background: bool = False
+    # Target polytope vertices (V, 3) in T [m]; when given, the target is drawn as their convex
+    # hull instead of the box (target_box_size_m is then unused).
+    target_vertices_T: list[list[float]] = field(default_factory=list)
+    # Chaser polytope vertices (V, 3) in C [m]; when given, drawn as their convex hull.
+    chaser_vertices_C: list[list[float]] = field(default_factory=list)
 
     def validate(self) -> None:
         """Raises ValueError naming the first bad field."""
@@ -147,6 +166,43 @@ class SceneConfig:
             raise ValueError("SceneConfig.trail_max_points and trail_stride must be >= 1")
         if len(self.camera_position_L_m) not in (0, 3):
             raise ValueError("SceneConfig.camera_position_L_m must be empty or 3 numbers")
+        for name in ("target_vertices_T", "chaser_vertices_C"):
+            vertices = np.asarray(getattr(self, name), dtype=float)
+            if vertices.size and (
+                vertices.ndim != 2 or vertices.shape[1] != 3 or len(vertices) < 4
+                or not np.all(np.isfinite(vertices))
+            ):  # fmt: skip
+                raise ValueError(f"SceneConfig.{name} must be empty or >= 4 finite 3-D points")
+
+    def body_extent_m(self, body: str) -> float:
+        """The largest edge of the body's bounding box ('target' or 'chaser') [m]."""
+        vertices = self.target_vertices_T if body == "target" else self.chaser_vertices_C
+        if len(vertices):
+            v = np.asarray(vertices, dtype=float)
+            return float(np.max(v.max(axis=0) - v.min(axis=0)))
+        return float(max(self.target_box_size_m if body == "target" else self.chaser_box_size_m))
+
+
+def convex_hull_obj(vertices: np.ndarray) -> str:
+    """Wavefront OBJ text of the convex hull of points (V, 3): vertices and outward triangles."""
+    points = np.asarray(vertices, dtype=float)
+    hull = ConvexHull(points)
+    centre = points[hull.vertices].mean(axis=0)
+    lines = [f"v {x:.12g} {y:.12g} {z:.12g}" for x, y, z in points]
+    for simplex in hull.simplices:
+        a, b, c = points[simplex]
+        if np.cross(b - a, c - a) @ (a - centre) < 0.0:  # wind counter-clockwise from outside
+            simplex = simplex[[0, 2, 1]]
+        lines.append("f " + " ".join(str(i + 1) for i in simplex))
+    return "\n".join(lines) + "\n"
+
+
+def _body_shape(name: str, box_size_m, vertices):
+    """A Box, or a Convex hull of the vertices when there are any."""
+    if len(vertices):
+        obj = convex_hull_obj(np.asarray(vertices, dtype=float))
+        return Convex(InMemoryMesh(mesh_file=MemoryFile(obj, ".obj", f"{name}_hull.obj")))
+    return Box(*box_size_m)
 
 
 def rotation_from_wxyz(q_wxyz: np.ndarray) -> RotationMatrix:
@@ -203,10 +259,18 @@ class RendezvousScene(LeafSystem):
 
         self._source_id = scene_graph.RegisterSource("rpod_scene")
         self._target_frame_id = self._RegisterBody(
-            scene_graph, "target", config.target_box_size_m, TARGET_RGBA
+            scene_graph,
+            "target",
+            _body_shape("target", config.target_box_size_m, config.target_vertices_T),
+            config.body_extent_m("target"),
+            TARGET_RGBA,
         )
         self._chaser_frame_id = self._RegisterBody(
-            scene_graph, "chaser", config.chaser_box_size_m, CHASER_RGBA
+            scene_graph,
+            "chaser",
+            _body_shape("chaser", config.chaser_box_size_m, config.chaser_vertices_C),
+            config.body_extent_m("chaser"),
+            CHASER_RGBA,
         )
 
         input_tickets = {
@@ -235,18 +299,19 @@ class RendezvousScene(LeafSystem):
         self._last_publish_time = -np.inf
         self._last_trail_time = -np.inf
 
-    def _RegisterBody(self, scene_graph: SceneGraph, name: str, size_m: list[float], rgba: Rgba):
-        """Registers a frame with a box and a body-axes triad; returns the FrameId."""
+    def _RegisterBody(self, scene_graph: SceneGraph, name: str, shape, extent_m: float, rgba: Rgba):
+        """Registers a frame with a body shape and a body-axes triad; returns the FrameId."""
         frame_id = scene_graph.RegisterFrame(self._source_id, GeometryFrame(name))
+        suffix = "box" if isinstance(shape, Box) else "hull"
         box_id = scene_graph.RegisterGeometry(
             self._source_id,
             frame_id,
-            GeometryInstance(RigidTransform(), Box(*size_m), f"{name}_box"),
+            GeometryInstance(RigidTransform(), shape, f"{name}_{suffix}"),
         )
         scene_graph.AssignRole(self._source_id, box_id, MakePhongIllustrationProperties(rgba.rgba))
         # Triad length 0.8 of the largest edge, so it sticks out of a cube-like box.
-        length = 0.8 * max(size_m)
-        radius = 0.02 * max(size_m)
+        length = 0.8 * extent_m
+        radius = 0.02 * extent_m
         for axis, axis_name in enumerate("xyz"):
             axis_id = scene_graph.RegisterGeometry(
                 self._source_id,
@@ -311,7 +376,7 @@ class RendezvousScene(LeafSystem):
         target = f"{root}/target_frame"
         p_TP_T = np.asarray(config.docking_port_T, dtype=float)
         X_TK = RigidTransform(RotationMatrix.MakeFromOneVector(config.docking_axis_T, 2), p_TP_T)
-        port_radius = 0.06 * max(config.target_box_size_m)
+        port_radius = 0.06 * config.body_extent_m("target")
         meshcat.SetObject(f"{target}/docking_port", Sphere(port_radius), DOCKING_AXIS_RGBA)
         meshcat.SetTransform(f"{target}/docking_port", RigidTransform(p_TP_T))
         axis_length = 1.1 * config.corridor_length_m
@@ -448,3 +513,62 @@ class RendezvousScene(LeafSystem):
         if len(config.camera_position_L_m) == 3:
             meshcat.SetCameraPose(np.asarray(config.camera_position_L_m, dtype=float), np.zeros(3))
         return scene
+
+
+class PlannedPathOverlay(LeafSystem):
+    """Draws each new plan's knots in Meshcat (module docstring), in L.
+
+    Input port:
+        planned_path (abstract): an object with ``index`` (int; 0 = no plan), ``t0_s`` (float)
+            and ``p_LC_L`` ((N, 3) array), e.g. ``rpod.systems.soft_capture_controller.
+            PlannedPath``. A new ``index`` is drawn at the next publish.
+
+    Args:
+        meshcat: where to draw.
+        publish_period_s: how often the input is checked [s].
+        prefix: Meshcat path prefix; the plans go under "<prefix>/overlay/plans".
+        knot_size_m: size of the knot points [m].
+    """
+
+    def __init__(
+        self, meshcat: Meshcat, publish_period_s: float, prefix: str = "rpod",
+        knot_size_m: float = 0.12,
+    ):  # fmt: skip
+        super().__init__()
+        self._meshcat = meshcat
+        self._root = f"{prefix}/overlay/plans"
+        self._knot_size = knot_size_m
+        self._path_port = self.DeclareAbstractInputPort(
+            "planned_path", AbstractValue.Make(object())
+        )
+        self.DeclareInitializationPublishEvent(self._Initialize)
+        self.DeclarePeriodicPublishEvent(publish_period_s, 0.0, self._Publish)
+        self._drawn_index = 0
+        self._start_time = 0.0
+
+    def _Initialize(self, context) -> None:
+        self._meshcat.Delete(self._root)
+        self._drawn_index = 0
+        self._start_time = context.get_time()
+        self._Publish(context)
+
+    def _Publish(self, context) -> None:
+        path = self._path_port.Eval(context)
+        index = int(getattr(path, "index", 0))
+        if index == self._drawn_index or index == 0:
+            return
+        t = context.get_time()
+        p = np.asarray(path.p_LC_L, dtype=float)
+        node = f"{self._root}/{index:03d}"
+        if len(p) >= 2:
+            self._meshcat.SetLine(f"{node}/line", p.T, 2.0, PLAN_RGBA)
+        cloud = PointCloud(len(p), Fields(BaseField.kXYZs))
+        cloud.mutable_xyzs()[:] = p.T
+        self._meshcat.SetObject(f"{node}/knots", cloud, self._knot_size, PLAN_RGBA)
+        # Hidden from the recording's start until now; the previous plan is hidden from now on.
+        self._meshcat.SetProperty(node, "visible", False, time_in_recording=self._start_time)
+        self._meshcat.SetProperty(node, "visible", True, time_in_recording=t)
+        if self._drawn_index:
+            previous = f"{self._root}/{self._drawn_index:03d}"
+            self._meshcat.SetProperty(previous, "visible", False, time_in_recording=t)
+        self._drawn_index = index

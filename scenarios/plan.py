@@ -1,0 +1,201 @@
+"""One soft-capture plan to a folder: plan.npz, summary.json, plots/, scenario.yaml (`rpod plan`).
+
+Owns: `plan_scenario` (paper 000's planner on a scenario's initial state, no simulation) and
+`plan_to_folder`, which writes the plan so that a folder is either complete or absent (a hidden
+staging folder renamed into place, as `rpod.scenarios.run.run_to_folder` does).
+Does not own: the planner (rpod.planners), the plots (rpod.diagrams.plan_plots), or the command
+line (cli.py).
+
+What is planned. The scenario's `controller.soft_capture.planner` config as written (Table I
+in the bundled scenario), from the scenario's initial state: x0 = [chaser.p_LC_L,
+chaser.v_LC_L], the target's initial attitude in LVLH and body rate, the chaser's initial
+attitude as the pointing law's start, the target inertia for the prediction (torque-free Euler
+equations with the LVLH frame turning at the planner's n), and the scenario's true polytopes.
+The closed loop (`rpod run`) plans its first plan from the same state but with eps_p, eps_v
+scaled by `plan_tolerance_fraction` and the hulls scaled by 1 + `collision_margin` (margins for
+tracking error and for the motion between knots); `closed_loop=True` plans that one instead (the
+file's polytopes are then the scaled ones the plan was checked against). Every plan with N >= 2 knots is re-checked by the independent checker
+(rpod.planners.plan_check); its report is in summary.json.
+
+plan.npz: t [N], x [N, 6] (p_LC_L, v_LC_L), u [N-1, 3] (force in L, N), q_LT [N, 4], w_IT_T
+[N, 3], q_LC [N, 4], alpha [N], alpha_check [N] (the checker's LP), rho [N], slack [N],
+A_chaser, b_chaser, V_chaser, A_target, b_target, V_target (polytopes in C and T; V: vertices),
+D_c, D_t, x0, and every Table I parameter under its symbol (n, m, dt, gamma, psi, U_max, r_max,
+v_max, omega_max, eps_p, eps_v, theta_dock [rad], N_dock, alpha_min, i_max). A failed search
+writes its last feasible iterate (it fails the hard test) or empty arrays (N = 0).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+import pathlib
+import shutil
+import time
+
+import numpy as np
+from pydrake.common.yaml import yaml_dump_typed
+
+from rpod.diagrams.builder import body_polytopes, target_rotation_in_lvlh
+from rpod.diagrams.plan_plots import write_plan_plots
+from rpod.diagrams.scenario import Scenario
+from rpod.models.frames import quaternion_wxyz, rotation_from_rpy_deg
+from rpod.planners.plan_check import check_plan
+from rpod.planners.soft_capture import SoftCapturePlanner, predict_for_planner
+from rpod.scenarios.loader import ScenarioFileError
+from rpod.scenarios.run import _replace_folder
+
+
+@dataclasses.dataclass
+class ScenarioPlan:
+    """A plan and everything it was made from.
+
+    Attributes:
+        plan: The planner's ``SoftCapturePlan``.
+        config: The ``SoftCaptureConfig`` it was planned with.
+        prediction: The ``TargetPrediction`` it was planned against.
+        x0: Initial state (6,) [m, m/s].
+        chaser_hull: Chaser ``ConvexPolytope`` (C).
+        target_hull: Target ``ConvexPolytope`` (T).
+        wall_time_s: Prediction + planning wall time [s].
+    """
+
+    plan: object
+    config: object
+    prediction: object
+    x0: np.ndarray
+    chaser_hull: object
+    target_hull: object
+    wall_time_s: float
+
+
+def plan_scenario(name: str, scenario: Scenario, closed_loop: bool = False) -> ScenarioPlan:
+    """Plans the scenario's soft capture from its initial state (module docstring).
+
+    Raises:
+        ScenarioFileError: If the scenario has no soft-capture controller (one line naming the
+            field, as the command line reports bad input).
+    """
+    if scenario.controller.type != "soft_capture":
+        raise ScenarioFileError(
+            f"{name}: controller.type: planning needs a soft_capture controller, "
+            f"got '{scenario.controller.type}'"
+        )
+    block = scenario.controller.soft_capture
+    config = block.planning_config() if closed_loop else block.planner
+    chaser, target = scenario.chaser, scenario.target
+    chaser_hull, target_hull = body_polytopes(scenario)
+    if closed_loop:
+        chaser_hull, target_hull = block.planning_hulls(chaser_hull, target_hull)
+    x0 = np.concatenate([np.asarray(chaser.p_LC_L, float), np.asarray(chaser.v_LC_L, float)])
+    start = time.perf_counter()
+    prediction = predict_for_planner(
+        config,
+        quaternion_wxyz(target_rotation_in_lvlh(scenario)),
+        np.radians(np.asarray(target.w_IT_T_deg_s, float)),
+        np.asarray(target.inertia_kg_m2, float),
+    )
+    planner = SoftCapturePlanner(config, chaser_hull, target_hull)
+    plan = planner.plan(x0, prediction, R_LC0=rotation_from_rpy_deg(chaser.rpy_LC_deg))
+    return ScenarioPlan(plan, config, prediction, x0, chaser_hull, target_hull,
+                        time.perf_counter() - start)  # fmt: skip
+
+
+def _finite(value):
+    """A float, or None when it is not finite (strict JSON has no NaN)."""
+    value = float(value)
+    return value if math.isfinite(value) else None
+
+
+def plan_arrays(result: ScenarioPlan, alpha_check: np.ndarray | None = None) -> dict:
+    """The arrays of plan.npz (module docstring)."""
+    plan, config = result.plan, result.config
+    arrays = {
+        "t": plan.t, "x": plan.x, "u": plan.u, "q_LT": plan.q_LT, "w_IT_T": plan.w_IT_T,
+        "q_LC": plan.q_LC, "alpha": plan.alpha, "rho": plan.rho, "slack": plan.slack,
+        "alpha_check": alpha_check if alpha_check is not None else np.full(plan.N, np.nan),
+        "A_chaser": result.chaser_hull.A, "b_chaser": result.chaser_hull.b,
+        "V_chaser": result.chaser_hull.vertices, "A_target": result.target_hull.A,
+        "b_target": result.target_hull.b, "V_target": result.target_hull.vertices,
+        "x0": result.x0,
+    }  # fmt: skip
+    arrays.update(config.symbols())  # n, m, dt, ..., D_c, D_t (Table I symbols)
+    return {key: np.asarray(value) for key, value in arrays.items()}
+
+
+def plan_summary(name: str, result: ScenarioPlan, report) -> dict:
+    """The content of summary.json."""
+    plan, config = result.plan, result.config
+    summary = {
+        "scenario": name,
+        "status": plan.status,
+        "reason": plan.reason,
+        "N": int(plan.N),
+        "time_to_capture_s": (plan.N - 1) * config.dt_s if plan.N else None,
+        "scp_iterations": int(plan.scp_iterations),
+        "solve_time_s": [float(s) for s in plan.solve_time_s],
+        "total_solve_time_s": float(plan.total_solve_time_s),
+        "wall_time_s": float(result.wall_time_s),
+        "cost": _finite(plan.cost),
+        "fuel_l1_N": float(plan.fuel_l1_N),
+        "delta_v_m_s": float(
+            np.linalg.norm(plan.u, axis=1).sum() * config.dt_s / config.chaser_mass_kg
+        ),
+        "min_alpha": _finite(plan.min_alpha),
+        "attempts": [dataclasses.asdict(a) for a in plan.attempts],
+        "eps_p": config.capture_position_tol_m,
+        "eps_v": config.capture_speed_tol_m_s,
+    }
+    if report is None:
+        summary["check"] = None
+    else:
+        summary["check"] = {
+            "passed": report.passed(),
+            "violations": {k: float(v) for k, v in report.violations().items()},
+            **{k: _finite(v) for k, v in report.summary().items()},
+        }
+    return summary
+
+
+def plan_to_folder(
+    name: str, scenario: Scenario, out_dir: pathlib.Path, closed_loop: bool = False
+) -> dict:
+    """Plans `scenario` and writes plan.npz, summary.json, plots/ and scenario.yaml into out_dir.
+
+    Args:
+        name: The scenario's name (titles, summary).
+        scenario: A validated scenario with a soft_capture controller.
+        out_dir: The folder to write (replaced whole, atomically, when complete).
+        closed_loop: Plan with the closed loop's tightened tolerances (module docstring).
+
+    Returns:
+        The summary (summary.json's content); ``summary["status"]`` is the planner's status.
+
+    Raises:
+        ScenarioFileError: If the scenario has no soft-capture controller.
+    """
+    result = plan_scenario(name, scenario, closed_loop)
+    report = None
+    if result.plan.N >= 2:
+        report = check_plan(result.plan, result.config, result.prediction, x0=result.x0,
+                            chaser_hull=result.chaser_hull, target_hull=result.target_hull)  # fmt: skip
+    out_dir = pathlib.Path(out_dir)
+    out_dir.parent.mkdir(parents=True, exist_ok=True)
+    staging = out_dir.with_name(f".{out_dir.name}.partial-{os.getpid()}")
+    shutil.rmtree(staging, ignore_errors=True)
+    staging.mkdir()
+    try:
+        arrays = plan_arrays(result, None if report is None else report.alpha_check)
+        np.savez_compressed(staging / "plan.npz", **arrays)
+        (staging / "scenario.yaml").write_text(yaml_dump_typed(scenario))
+        summary = plan_summary(name, result, report)
+        summary["plots"] = [p.name for p in write_plan_plots(arrays, staging / "plots", name)]
+        # summary.json last: its presence marks a complete plan inside the folder too.
+        (staging / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+        _replace_folder(staging, out_dir)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+    return summary

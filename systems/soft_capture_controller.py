@@ -1,0 +1,549 @@
+"""Soft-capture controller: plan with paper 000's planner, track the plan, replan on a schedule.
+
+Owns: ``SoftCaptureControllerConfig`` (the planner's Table I config plus the closed-loop
+settings) and ``SoftCaptureController``, a sampled (10 Hz by default) system that turns the
+measured relative state and both attitudes into a desired chaser body wrench [tau_C; f_C], and
+keeps the record of every plan it asked for. Does not own: the planner (``rpod.planners``),
+allocation (allocator.py), pulse modulation (pwm.py), or drawing the plan (scene.py).
+
+Measurements. There is no estimator yet: the controller reads the true relative state, the true
+target attitude and rate and the true chaser attitude (the same truth signals the hold-point
+controller reads). The target prediction integrates the torque-free Euler equations from the
+measured target state with the target inertia the controller is given (the truth's).
+
+Planning (paper 000 Fig. 4). At the first sample (t0, through the initialization event) the
+controller plans from the measured state with the full horizon search of ``SoftCapturePlanner``
+and the chaser's measured attitude as the pointing law's start. Planning takes no simulated time
+(the computation delay is not modelled; the wall time of every solve is recorded). The plan is
+made with the terminal tolerances eps_p, eps_v (13, 14) scaled by ``plan_tolerance_fraction``:
+the fuel-optimal plan lands on the boundary of its terminal ball, so planning to the capture
+tolerances themselves would leave no margin for tracking error. For the same reason the planner
+sees both hulls scaled about their origins by ``1 + collision_margin`` (b -> (1 + m) b): the
+scaling metric then scales exactly, alpha_true = (1 + m) alpha_planned, so the hard test
+alpha_planned > 1 (Sec. V-C) guarantees alpha_true > 1 + m at every knot. The paper's test
+alone (alpha_true > 1 at the knots) leaves no margin at all: plans that pass it with
+min alpha ~1.0002 exist, and between knots (1 s apart) a target tumbling at a few deg/s turns
+its corners by decimetres, so flown on truth such a plan can touch (found in closed-loop runs
+of random Sec. VI-B starts; the margin is the fix).
+
+Replanning (shrinking horizon). Every ``replan_period_s`` (an integer number of knots) after a
+plan's start, while at least ``min_replan_knots`` knots remain, the controller replans from the
+measured state with the *same final time*: a single horizon N_rem = (t_f - t) / dt + 1, no
+search. This rejects what the plan's CW model does not see (two-body + J2 truth, PWM quantisation,
+attitude coupling) without letting the capture time slip. A replan that fails keeps the previous
+plan (still feasible for the nominal model, and the feedback keeps the chaser near it); the
+failure is recorded. Near the end (fewer than ``min_replan_knots`` knots left) the plan is only
+tracked: a replan there could not correct much, and the docking-cone knots (11) are the last few.
+
+Tracking (between samples the output is held). Within step k of the active plan the reference is
+the plan's own CW motion under its zero-order-hold force, exactly (paper 000 eq. (5) with
+``tau = t - t_k`` in place of dt): ``x_ref = Phi(tau) x_k + B_d(tau) u_k / m``. The commanded
+acceleration in L is the planned feed-forward plus a PD on the error,
+
+    a_L = u_k / m + w_n^2 (p_ref - p) + 2 zeta w_n (v_ref - v),
+
+and the force is rotated into the chaser body frame with the measured attitudes,
+``f_C = m R_CL a_L = m R_IC^T R_IL a_L`` (paper 003 eq. 13).
+
+After the plan's final knot the controller holds the capture pose: the reference is the chaser
+centre of mass at p* = R_LT (D_t - R_y(pi) D_c) (13), moving with the target (its velocity (14)
+and acceleration as a point fixed in T), with the CW terms cancelled; this keeps the capture
+points together until the (unmodelled) capture mechanism would close.
+
+Attitude (the pointing law of paper 000 Sec. IV, from the measured position). The desired
+attitude turns the capture axis D_c onto the line of sight -p/|p| by the minimum-norm increment
+from the previous sample's desired attitude (no roll about the line of sight, as in the plan); at
+t0 it starts from the measured attitude. Its rate is the line-of-sight rate, w_LCdes = p x v /
+|p|^2, plus the LVLH rate. A PD law with gyroscopic compensation drives the chaser toward it:
+
+    tau_C = J (w_a^2 e_C + 2 zeta_a w_a (w_des_C - w_IC_C)) + w_IC_C x J w_IC_C,
+
+with e_C the rotation vector of R_IC^T R_ICdes.
+
+Fallback (DESIGN.md: planners never raise, controllers fall back to a safe action). When no plan
+succeeded (an infeasible start, a tumble above min(omega_max, v_max / |D_c + D_t|), a solver
+failure), the controller commands zero wrench: the scenario starts the chaser on a passively safe
+(bounded, drift-free, eq. (6)) relative orbit, on which zero thrust is the safe action -- the
+chaser keeps circling the target without approaching it (to the accuracy of the CW model: J2 and
+the target's eccentricity make the ellipse drift slowly, over many orbits). The attitude is left
+free too (zero torque), so that no thruster fires at all. The status is on the ``planner_status``
+and ``controller_mode`` ports and in the plan record; with ``retry_period_s`` > 0 the full search
+is tried again at that period.
+"""
+
+import dataclasses
+import logging
+import math
+import time
+
+import numpy as np
+from pydrake.common.value import AbstractValue, Value
+from pydrake.math import RotationMatrix
+from pydrake.systems.framework import LeafSystem
+
+from rpod.models.cw import cw_state_transition, cw_zoh_input
+from rpod.models.frames import rotation_from_wxyz
+from rpod.models.rigid_body import angular_acceleration
+from rpod.models.shapes import (
+    ConvexPolytope,
+    soft_capture_chaser_hull,
+    soft_capture_target_hull,
+)
+from rpod.planners.pointing import min_rotation
+from rpod.planners.soft_capture import SoftCaptureConfig, SoftCapturePlanner
+from rpod.planners.target_prediction import predict_target
+
+# Controller modes (the ``controller_mode`` output, logged; MODES[code] is the name).
+MODES = ("tracking", "capture_hold", "fallback")
+MODE_TRACKING, MODE_CAPTURE_HOLD, MODE_FALLBACK = range(3)
+
+# Planner statuses (the ``planner_status`` output holds the code of the last planner call's
+# status; PLANNER_STATUSES[code] is the name). "none": no plan asked yet; "prediction_failed":
+# the target prediction raised on the measured target state (e.g. non-finite); "other": a
+# status not in this list.
+PLANNER_STATUSES = (
+    "none",
+    "success",
+    "invalid_input",
+    "tumble_rate_above_limit",
+    "initial_state_in_collision",
+    "no_feasible_horizon",
+    "problem2_infeasible",
+    "problem2_solver_failure",
+    "problem3_infeasible",
+    "problem3_solver_failure",
+    "collision_metric_failed",
+    "scp_max_iterations",
+    "prediction_failed",
+    "other",
+)
+_R_Y_PI = np.diag([-1.0, 1.0, -1.0])
+_logger = logging.getLogger(__name__)
+# Times within this of a knot or a replan instant count as on it (the periodic event times are
+# k * period in floating point, e.g. 10.000000000000002).
+_TIME_TOLERANCE_S = 1e-6
+
+
+def planner_status_code(status: str) -> int:
+    """The ``planner_status`` code of a planner status string."""
+    return (
+        PLANNER_STATUSES.index(status) if status in PLANNER_STATUSES else len(PLANNER_STATUSES) - 1
+    )
+
+
+@dataclasses.dataclass
+class SoftCaptureControllerConfig:
+    """The soft-capture planner's problem data and the closed-loop settings.
+
+    Args:
+        planner: Paper 000's problem data (Table I defaults) and its horizon search.
+        control_period_s: sample period of the law (the PWM period downstream); the knot
+            spacing planner.dt_s must be an integer number of periods.
+        plan_tolerance_fraction: the plans are made with eps_p and eps_v scaled by this, in
+            (0, 1]; the capture criterion uses the unscaled ones (module docstring).
+        collision_margin: the planner sees both hulls scaled by 1 + this about their origins,
+            so every planned knot keeps the true alpha above 1 + this (module docstring); >= 0.
+        replan_period_s: shrinking-horizon replanning period, an integer number of knots
+            (0: never replan).
+        min_replan_knots: no replan when fewer knots than this remain to the final one.
+        retry_period_s: after a failed plan, retry the full search at this period (0: never;
+            the chaser then stays on its passively safe orbit).
+        translation_bandwidth_rad_s: natural frequency w_n of the position feedback.
+        translation_damping: damping ratio zeta of the position feedback.
+        attitude_bandwidth_rad_s: natural frequency w_a of the attitude loop.
+        attitude_damping: damping ratio zeta_a of the attitude loop.
+    """
+
+    planner: SoftCaptureConfig = dataclasses.field(default_factory=SoftCaptureConfig)
+    control_period_s: float = 0.1
+    plan_tolerance_fraction: float = 0.5
+    collision_margin: float = 0.1
+    replan_period_s: float = 10.0
+    min_replan_knots: int = 10
+    retry_period_s: float = 0.0
+    translation_bandwidth_rad_s: float = 0.4
+    translation_damping: float = 1.0
+    attitude_bandwidth_rad_s: float = 0.8
+    attitude_damping: float = 1.0
+
+    def planning_config(self) -> SoftCaptureConfig:
+        """The planner config the controller plans with: eps_p, eps_v scaled (docstring)."""
+        return dataclasses.replace(
+            self.planner,
+            capture_position_tol_m=self.planner.capture_position_tol_m
+            * self.plan_tolerance_fraction,
+            capture_speed_tol_m_s=self.planner.capture_speed_tol_m_s * self.plan_tolerance_fraction,
+        )
+
+    def planning_hulls(self, chaser_hull, target_hull):
+        """The (chaser, target) hulls the controller plans with: scaled by 1 + collision_margin."""
+        scale = 1.0 + self.collision_margin
+        return tuple(
+            ConvexPolytope(A=hull.A, b=scale * hull.b, vertices=scale * hull.vertices)
+            for hull in (chaser_hull, target_hull)
+        )
+
+    def validate(self) -> None:
+        """Raises ValueError naming the first bad field (the planner's as 'planner.<field>')."""
+        try:
+            self.planner.validate()
+        except ValueError as error:
+            raise ValueError(f"planner.{error}") from None
+        for name in (
+            "control_period_s",
+            "translation_bandwidth_rad_s",
+            "translation_damping",
+            "attitude_bandwidth_rad_s",
+            "attitude_damping",
+        ):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"{name}: must be a finite positive number, got {value!r}")
+        if not 0.0 < self.plan_tolerance_fraction <= 1.0:
+            raise ValueError(
+                f"plan_tolerance_fraction: must lie in (0, 1], got {self.plan_tolerance_fraction}"
+            )
+        if not (math.isfinite(self.collision_margin) and self.collision_margin >= 0.0):
+            raise ValueError(f"collision_margin: must be >= 0, got {self.collision_margin}")
+        dt = self.planner.dt_s
+        if not _is_multiple(dt, self.control_period_s):
+            raise ValueError(
+                f"control_period_s: planner.dt_s = {dt} must be an integer number of control "
+                f"periods, got {self.control_period_s}"
+            )
+        if not (math.isfinite(self.replan_period_s) and self.replan_period_s >= 0.0):
+            raise ValueError(f"replan_period_s: must be >= 0, got {self.replan_period_s}")
+        if self.replan_period_s > 0.0 and not _is_multiple(self.replan_period_s, dt):
+            raise ValueError(
+                f"replan_period_s: must be an integer number of knots (planner.dt_s = {dt}), "
+                f"got {self.replan_period_s}"
+            )
+        if not (math.isfinite(self.retry_period_s) and self.retry_period_s >= 0.0):
+            raise ValueError(f"retry_period_s: must be >= 0, got {self.retry_period_s}")
+        if self.retry_period_s > 0.0 and not _is_multiple(
+            self.retry_period_s, self.control_period_s
+        ):
+            raise ValueError("retry_period_s: must be an integer number of control periods")
+        if int(self.min_replan_knots) != self.min_replan_knots or self.min_replan_knots < 2:
+            raise ValueError(
+                f"min_replan_knots: must be an integer >= 2, got {self.min_replan_knots}"
+            )
+
+
+def _is_multiple(value: float, period: float) -> bool:
+    ratio = value / period
+    return ratio >= 1.0 - 1e-9 and abs(ratio - round(ratio)) < 1e-9 * max(1.0, ratio)
+
+
+@dataclasses.dataclass(frozen=True)
+class PlannedPath:
+    """The active plan's knots, for drawing (the ``planned_path`` output).
+
+    Attributes:
+        index: 0 before any plan; then 1, 2, ... for each accepted plan.
+        t0_s: Simulated time of the plan's first knot [s].
+        p_LC_L: Planned chaser positions at the knots (N, 3) in L [m].
+    """
+
+    index: int = 0
+    t0_s: float = 0.0
+    p_LC_L: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 3)))
+
+
+@dataclasses.dataclass(frozen=True)
+class _ActivePlan:
+    """The plan being tracked: knots from t0_s at the planner's dt."""
+
+    index: int
+    t0_s: float
+    x: np.ndarray  # (N, 6)
+    u: np.ndarray  # (N-1, 3) force in L [N]
+    next_replan_s: float
+
+    @property
+    def N(self) -> int:
+        return len(self.x)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Memory:
+    """Everything the controller remembers between samples (one abstract state, replaced whole)."""
+
+    plan: _ActivePlan | None = None
+    attempted: bool = False
+    next_retry_s: float = math.inf
+    R_LC_des: np.ndarray | None = None
+    records: tuple = ()  # one dict per planner call, in order (``plan_records``)
+
+
+class SoftCaptureController(LeafSystem):
+    """Sampled soft-capture law (module docstring), output held between samples.
+
+    Input ports: relative_state_L (6), q_IL (4), w_IL_L (3), target_attitude (7),
+        chaser_attitude (7).
+    Output ports: body_wrench_desired (6, [tau_C; f_C]), reference_L (3, the planned position
+        at the sample; NaN in fallback), force_feedforward_L (3, the planned force in L [N]),
+        controller_mode (1, a ``MODES`` code), planner_status (1, a ``PLANNER_STATUSES`` code of
+        the last planner call), planned_path (abstract ``PlannedPath``).
+
+    Args:
+        config: Planner data and closed-loop settings; validated here.
+        chaser_inertia: Chaser inertia (3, 3) in C [kg m^2] (the attitude law's model).
+        target_inertia: Target inertia (3, 3) in T [kg m^2] (the target prediction's model).
+        chaser_hull: True chaser ``ConvexPolytope`` in C (default: paper 000's); the planner
+            sees it scaled by 1 + collision_margin.
+        target_hull: True target ``ConvexPolytope`` in T (default: paper 000's); likewise.
+    """
+
+    def __init__(
+        self,
+        config: SoftCaptureControllerConfig,
+        chaser_inertia: np.ndarray,
+        target_inertia: np.ndarray,
+        chaser_hull=None,
+        target_hull=None,
+    ):
+        super().__init__()
+        config.validate()
+        self._config = config
+        self._planning = config.planning_config()
+        chaser_hull = chaser_hull if chaser_hull is not None else soft_capture_chaser_hull()
+        target_hull = target_hull if target_hull is not None else soft_capture_target_hull()
+        self._planner = SoftCapturePlanner(
+            self._planning, *config.planning_hulls(chaser_hull, target_hull)
+        )
+        self._J_C = np.asarray(chaser_inertia, dtype=float)
+        self._J_T = np.asarray(target_inertia, dtype=float)
+        self._mass = float(config.planner.chaser_mass_kg)
+        self._n = float(self._planning.mean_motion)
+        self._dt = float(self._planning.dt_s)
+        self._D_c = np.asarray(self._planning.p_CDc_C, dtype=float)
+        self._c_C = self._D_c / np.linalg.norm(self._D_c)
+        self._reach_T = np.asarray(self._planning.p_TDt_T, float) - _R_Y_PI @ self._D_c
+
+        self._relative_port = self.DeclareVectorInputPort("relative_state_L", 6)
+        self._q_IL_port = self.DeclareVectorInputPort("q_IL", 4)
+        self._w_IL_L_port = self.DeclareVectorInputPort("w_IL_L", 3)
+        self._target_port = self.DeclareVectorInputPort("target_attitude", 7)
+        self._chaser_port = self.DeclareVectorInputPort("chaser_attitude", 7)
+
+        # Held outputs: [wrench (6), reference (3), feed-forward (3), mode (1), status (1)].
+        self._held = self.DeclareDiscreteState(14)
+        self._memory = self.DeclareAbstractState(Value[object](_Memory()))
+        self._path = self.DeclareAbstractState(Value[object](PlannedPath()))
+        self.DeclarePeriodicUnrestrictedUpdateEvent(config.control_period_s, 0.0, self._update)
+        self.DeclareInitializationUnrestrictedUpdateEvent(self._update)  # plan at t0
+        xd = {self.discrete_state_ticket(self._held)}
+        for name, start, size in (
+            ("body_wrench_desired", 0, 6),
+            ("reference_L", 6, 3),
+            ("force_feedforward_L", 9, 3),
+            ("controller_mode", 12, 1),
+            ("planner_status", 13, 1),
+        ):
+            self.DeclareVectorOutputPort(
+                name,
+                size,
+                lambda context, output, a=start, b=start + size: output.SetFromVector(
+                    context.get_discrete_state(self._held).get_value()[a:b]
+                ),
+                xd,
+            )
+        self.DeclareAbstractOutputPort(
+            "planned_path",
+            lambda: AbstractValue.Make(PlannedPath()),
+            lambda context, output: output.set_value(
+                context.get_abstract_state(self._path).get_value()
+            ),
+            {self.abstract_state_ticket(self._path)},
+        )
+
+    @property
+    def config(self) -> SoftCaptureControllerConfig:
+        """The controller's config."""
+        return self._config
+
+    @property
+    def planner(self) -> SoftCapturePlanner:
+        """The planner it calls (its programs are cached per horizon length)."""
+        return self._planner
+
+    def plan_records(self, context) -> list[dict]:
+        """One dict per planner call so far, in order (for the run's summary).
+
+        Keys: ``t_s``, ``kind`` ("initial", "replan", "retry"), ``status``, ``reason``, ``N``,
+        ``scp_iterations``, ``solve_time_s`` (each SOCP solve at the returned N),
+        ``total_solve_time_s`` (all solves of the call), ``wall_time_s`` (prediction + planning),
+        ``min_alpha`` (the planner's, against the scaled hulls), ``min_alpha_true`` (the true
+        hulls' alpha at that knot, (1 + collision_margin) min_alpha), ``fuel_l1_N``, ``accepted`` (the plan became the active one), ``index``
+        (the ``PlannedPath`` index when accepted, else 0), and when accepted ``x`` (the knots'
+        states [p_LC_L, v_LC_L], N lists of 6) and ``u`` (the forces in L, N-1 lists of 3).
+        """
+        return [dict(r) for r in context.get_abstract_state(self._memory).get_value().records]
+
+    # ------------------------------------------------------------------------------------------
+    # Planning
+
+    def _predict_and_plan(self, t, x0, R_LT, w_IT_T, R_LC, horizons):
+        """(plan or None, status, record fields) -- never raises on a bad measurement."""
+        c = self._planning
+        count = max(horizons) if horizons is not None else c.max_knots
+        start = time.perf_counter()
+        try:
+            prediction = predict_target(
+                RotationMatrix(R_LT).ToQuaternion().wxyz(),
+                w_IT_T,
+                self._J_T,
+                t + np.arange(count) * self._dt,
+                n_orbit=self._n,
+            )
+        except (ValueError, RuntimeError) as error:
+            return None, {"status": "prediction_failed", "reason": str(error).splitlines()[0],
+                          "wall_time_s": time.perf_counter() - start}  # fmt: skip
+        plan = self._planner.plan(x0, prediction, horizons=horizons, R_LC0=R_LC)
+        fields = {
+            "status": plan.status,
+            "reason": plan.reason,
+            "N": int(plan.N),
+            "scp_iterations": int(plan.scp_iterations),
+            "solve_time_s": [float(s) for s in plan.solve_time_s],
+            "total_solve_time_s": float(plan.total_solve_time_s),
+            "wall_time_s": time.perf_counter() - start,
+            "min_alpha": float(plan.min_alpha),
+            "min_alpha_true": float(plan.min_alpha) * (1.0 + self._config.collision_margin),
+            "fuel_l1_N": float(plan.fuel_l1_N),
+        }
+        return plan, fields
+
+    def _plan(self, memory: _Memory, t, kind, x0, R_LT, w_IT_T, R_LC) -> _Memory:
+        """Calls the planner; returns the memory with the record and, on success, the plan."""
+        cfg = self._config
+        horizons = None
+        if kind == "replan":
+            active = memory.plan
+            t_final = active.t0_s + (active.N - 1) * self._dt
+            horizons = [round((t_final - t) / self._dt) + 1]  # same final time
+        plan, fields = self._predict_and_plan(t, x0, R_LT, w_IT_T, R_LC, horizons)
+        accepted = plan is not None and plan.success
+        record = {"t_s": float(t), "kind": kind, "N": 0, "scp_iterations": 0, "solve_time_s": [],
+                  "total_solve_time_s": 0.0, "min_alpha": float("nan"),
+                  "min_alpha_true": float("nan"), "fuel_l1_N": 0.0,
+                  **fields, "accepted": accepted, "index": 0, "x": [], "u": []}  # fmt: skip
+        new_plan = memory.plan
+        next_retry = memory.next_retry_s
+        if accepted:
+            index = 1 + sum(1 for r in memory.records if r["accepted"])
+            next_replan = t + cfg.replan_period_s if cfg.replan_period_s > 0 else math.inf
+            new_plan = _ActivePlan(index, float(t), plan.x.copy(), plan.u.copy(), next_replan)
+            record.update(index=index, x=plan.x.tolist(), u=plan.u.tolist())
+            next_retry = math.inf
+        elif kind == "replan":
+            new_plan = dataclasses.replace(memory.plan, next_replan_s=t + cfg.replan_period_s)
+            _logger.info("soft capture: replan at t = %.1f s failed (%s: %s); keeping the plan",
+                         t, record["status"], record["reason"])  # fmt: skip
+        else:
+            next_retry = t + cfg.retry_period_s if cfg.retry_period_s > 0 else math.inf
+            _logger.warning("soft capture: no plan at t = %.1f s (%s: %s); zero thrust on the "
+                            "passively safe orbit", t, record["status"], record["reason"])  # fmt: skip
+        return dataclasses.replace(
+            memory, plan=new_plan, attempted=True, next_retry_s=next_retry,
+            records=memory.records + (record,),
+        )  # fmt: skip
+
+    # ------------------------------------------------------------------------------------------
+    # The law
+
+    def _update(self, context, state):
+        cfg = self._config
+        t = context.get_time()
+        relative = self._relative_port.Eval(context)
+        p, v = relative[0:3], relative[3:6]
+        R_IL = rotation_from_wxyz(self._q_IL_port.Eval(context))
+        w_IL_L = self._w_IL_L_port.Eval(context)
+        target = self._target_port.Eval(context)
+        chaser = self._chaser_port.Eval(context)
+        R_LT = R_IL.T @ rotation_from_wxyz(target[0:4])
+        w_IT_T = target[4:7]
+        R_IC = rotation_from_wxyz(chaser[0:4])
+        w_IC_C = chaser[4:7]
+        R_LC = R_IL.T @ R_IC
+
+        memory = context.get_abstract_state(self._memory).get_value()
+        previous_index = memory.plan.index if memory.plan is not None else 0
+        if not memory.attempted:
+            memory = self._plan(memory, t, "initial", relative, R_LT, w_IT_T, R_LC)
+        elif memory.plan is None and t >= memory.next_retry_s - _TIME_TOLERANCE_S:
+            memory = self._plan(memory, t, "retry", relative, R_LT, w_IT_T, R_LC)
+        elif memory.plan is not None and t >= memory.plan.next_replan_s - _TIME_TOLERANCE_S:
+            active = memory.plan
+            remaining = active.N - round((t - active.t0_s) / self._dt)
+            if remaining >= cfg.min_replan_knots:
+                memory = self._plan(memory, t, "replan", relative, R_LT, w_IT_T, R_LC)
+            else:
+                memory = dataclasses.replace(
+                    memory, plan=dataclasses.replace(active, next_replan_s=math.inf)
+                )
+        status = planner_status_code(memory.records[-1]["status"]) if memory.records else 0
+
+        if memory.plan is None:  # fallback: zero wrench on the passively safe orbit
+            held = np.concatenate([np.zeros(12), [MODE_FALLBACK, status]])
+            held[6:9] = np.nan
+            state.get_mutable_discrete_state(self._held).set_value(held)
+            state.get_mutable_abstract_state(self._memory).set_value(memory)
+            return
+
+        p_ref, v_ref, u_ff, a_ff, mode = self._reference(memory.plan, t, R_LT, w_IT_T)
+        w_n, zeta = cfg.translation_bandwidth_rad_s, cfg.translation_damping
+        a_L = a_ff + w_n * w_n * (p_ref - p) + 2.0 * zeta * w_n * (v_ref - v)
+        f_C = self._mass * (R_IC.T @ (R_IL @ a_L))  # paper 003 eq. 13
+
+        # Pointing law from the measured position (module docstring).
+        los = -p / max(np.linalg.norm(p), 1e-9)
+        R_prev = memory.R_LC_des if memory.R_LC_des is not None else R_LC
+        R_LC_des = min_rotation(R_prev @ self._c_C, los) @ R_prev
+        w_LC_des_L = np.cross(p, v) / max(p @ p, 1e-18)  # line-of-sight rate, no roll
+        R_IC_des = R_IL @ R_LC_des
+        error = RotationMatrix(R_IC.T @ R_IC_des).ToAngleAxis()
+        e_C = error.axis() * error.angle()
+        w_des_C = R_IC.T @ (R_IL @ (w_IL_L + w_LC_des_L))
+        w_a, zeta_a = cfg.attitude_bandwidth_rad_s, cfg.attitude_damping
+        J = self._J_C
+        tau_C = J @ (w_a * w_a * e_C + 2.0 * zeta_a * w_a * (w_des_C - w_IC_C)) + np.cross(
+            w_IC_C, J @ w_IC_C
+        )
+
+        held = np.concatenate([tau_C, f_C, p_ref, u_ff, [mode, status]])
+        state.get_mutable_discrete_state(self._held).set_value(held)
+        state.get_mutable_abstract_state(self._memory).set_value(
+            dataclasses.replace(memory, R_LC_des=R_LC_des)
+        )
+        if memory.plan.index != previous_index:
+            state.get_mutable_abstract_state(self._path).set_value(
+                PlannedPath(memory.plan.index, memory.plan.t0_s, memory.plan.x[:, :3].copy())
+            )
+
+    def _reference(self, plan: _ActivePlan, t, R_LT, w_IT_T):
+        """(p_ref, v_ref, u_ff [N], a_ff [m/s^2], mode) at time t (module docstring)."""
+        n, dt = self._n, self._dt
+        elapsed = t - plan.t0_s
+        k = math.floor((elapsed + _TIME_TOLERANCE_S) / dt)
+        if k < plan.N - 1:  # inside step k: the plan's exact ZOH motion, eq. (5)
+            tau = max(elapsed - k * dt, 0.0)
+            u = plan.u[k]
+            x_ref = cw_state_transition(n, tau) @ plan.x[k] + cw_zoh_input(n, tau) @ u / self._mass
+            return x_ref[:3], x_ref[3:], u, u / self._mass, MODE_TRACKING
+        # After the final knot: hold the capture pose, a point fixed in T (module docstring).
+        z_L_in_T = R_LT.T @ np.array([0.0, 0.0, n])
+        w_LT_T = w_IT_T - z_L_in_T  # the target's rate relative to L
+        w_dot_LT_T = angular_acceleration(self._J_T, w_IT_T) + np.cross(w_LT_T, z_L_in_T)
+        w_LT_L = R_LT @ w_LT_T
+        p_ref = R_LT @ self._reach_T  # (13): p* = R_LT (D_t - R_y(pi) D_c)
+        v_ref = np.cross(w_LT_L, p_ref)  # (14) with the chaser capture point's lever
+        a_ref = R_LT @ np.cross(w_dot_LT_T, self._reach_T) + np.cross(
+            w_LT_L, np.cross(w_LT_L, p_ref)
+        )
+        a_cw = np.array(  # unforced CW acceleration (paper 004 eq. 4), cancelled
+            [3 * n * n * p_ref[0] + 2 * n * v_ref[1], -2 * n * v_ref[0], -n * n * p_ref[2]]
+        )
+        a_ff = a_ref - a_cw
+        return p_ref, v_ref, self._mass * a_ff, a_ff, MODE_CAPTURE_HOLD
