@@ -1,0 +1,573 @@
+"""Campaign files: a base scenario and how to vary it (grid, cases, samples) -> planned runs.
+
+Owns: the campaign file format, its checks (each error names the file and the dotted location,
+e.g. `grid.chaser.mas_kg`), dotted-path overrides of `Scenario` fields, the plan (the list of
+runs, each with a stable id), and finding bundled campaigns.
+Does not own: the distributions (sampling.py), running (sweep.py, harness.py), storing
+(store.py) or reporting (report.py).
+
+A campaign file (every block but `base` is optional; at least one of grid, cases, sample):
+
+    description: "one line for rpod list"
+    base: coast                  # a bundled scenario, or a path relative to this file
+    overrides: {duration_s: 60.0}  # applied to the base for every run
+    timeout_s: 120.0             # default of `rpod sweep --timeout-s`
+    grid:                        # cartesian product of the listed values
+      orbit.gravity: [cw, two_body_j2]
+      chaser.p_LC_L[1]: [-50.0, -100.0]    # [i] indexes into a list field
+    cases:                       # explicit variants, each a mapping of overrides
+      - name: heavy
+        overrides: {chaser.mass_kg: 800.0}
+    sample:                      # count draws, seeded
+      count: 16
+      seed: 1
+      fields: {target.q_LT: {dist: attitude}}
+      passively_safe: {radial_m: {dist: uniform, low: 15.0, high: 50.0}}
+
+Runs are every combination case x grid point x sample (an absent block counts as one empty
+entry). The same `count` draws are used in every case and grid point (common random numbers:
+groups differ only by what the grid or case changed). Overrides are applied in the order base
+overrides, case, grid, sample; grid, sample and a case may not set the same field.
+
+Run ids. `run_id` is a SHA-256 (first 16 hex digits) of the canonical JSON of the base scenario
+after the campaign's `overrides` (every field, so editing the base file changes the ids), the
+run's own overrides, and `[seed, sample index]` for sampled runs. It depends on nothing else:
+not on the order of runs, on the other runs, on the machine or on the worker that runs it. A
+sample's draws come from a numpy Generator seeded by (seed, sample index, field path), so sample
+k is the same whatever `count` is and whatever other fields are sampled.
+"""
+
+import copy
+import dataclasses
+import hashlib
+import itertools
+import json
+import pathlib
+import re
+import typing
+import zlib
+
+import numpy as np
+import yaml
+from pydrake.common.yaml import yaml_dump_typed
+
+from rpod.diagrams.scenario import Scenario, ScenarioError, validate_scenario
+from rpod.scenarios import sampling
+from rpod.scenarios.loader import (
+    BUNDLED_DIR,
+    ScenarioFileError,
+    _check,
+    load_scenario,
+)
+
+CAMPAIGNS_DIR = BUNDLED_DIR / "campaigns"
+TOP_LEVEL_KEYS = ("description", "base", "overrides", "timeout_s", "grid", "cases", "sample")
+SAMPLE_KEYS = ("count", "seed", "fields", "passively_safe")
+_TOKEN = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*)((?:\[\d+\])*)$")
+
+
+# ---------------------------------------------------------------------------------------------
+# Dotted-path overrides of Scenario fields.
+
+
+def _tokens(path: str) -> list[tuple[str, list[int]]]:
+    """'chaser.p_LC_L[1]' -> [('chaser', []), ('p_LC_L', [1])]; ScenarioError when malformed."""
+    if not isinstance(path, str) or not path:
+        raise ScenarioError(str(path), "a field path must be a non-empty string")
+    tokens = []
+    for part in path.split("."):
+        match = _TOKEN.match(part)
+        if not match:
+            raise ScenarioError(path, f"malformed field path (at {part!r})")
+        tokens.append((match.group(1), [int(i) for i in re.findall(r"\d+", match.group(2))]))
+    return tokens
+
+
+def field_annotation(path: str):
+    """The schema type of a dotted Scenario path; ScenarioError(path, ...) if there is none."""
+    annotation, walked = Scenario, ""
+    for name, indices in _tokens(path):
+        if not dataclasses.is_dataclass(annotation):
+            raise ScenarioError(path, f"{walked} is a value, it has no field {name!r}")
+        hints = typing.get_type_hints(annotation)
+        if name not in hints:
+            where = f" of {walked}" if walked else ""
+            raise ScenarioError(path, f"unknown field {name!r}{where} (known: {', '.join(hints)})")
+        annotation = hints[name]
+        walked = f"{walked}.{name}" if walked else name
+        for index in indices:
+            if typing.get_origin(annotation) is not list:
+                raise ScenarioError(path, f"{walked} is not a list, it cannot take [{index}]")
+            annotation = typing.get_args(annotation)[0]
+            walked += f"[{index}]"
+    return annotation
+
+
+def check_value(path: str, value, location: str) -> None:
+    """ScenarioError(location, ...) unless value fits the leaf field `path`."""
+    annotation = field_annotation(path)
+    if dataclasses.is_dataclass(annotation):
+        raise ScenarioError(location, f"{path} is a group of fields; name one of its fields")
+    _check(value, annotation, location)
+
+
+def _coerce(value, annotation):
+    """Plain YAML data that passed _check -> the field's Python type (ints become floats)."""
+    if annotation is float:
+        return float(value)
+    if typing.get_origin(annotation) is list:
+        (item,) = typing.get_args(annotation)
+        return [_coerce(v, item) for v in value]
+    return value
+
+
+def flatten_overrides(mapping, location: str, prefix: str = "") -> dict:
+    """{'chaser': {'mass_kg': 1}} or {'chaser.mass_kg': 1} -> {'chaser.mass_kg': 1}, checked."""
+    if not isinstance(mapping, dict):
+        raise ScenarioError(
+            location, f"expected a mapping of field paths to values, got {mapping!r}"
+        )
+    flat = {}
+    for key, value in mapping.items():
+        path = f"{prefix}.{key}" if prefix else str(key)
+        where = f"{location}.{key}"
+        try:
+            annotation = field_annotation(path)
+        except ScenarioError as error:
+            raise ScenarioError(where, error.message) from None
+        if dataclasses.is_dataclass(annotation) and isinstance(value, dict):
+            flat.update(flatten_overrides(value, where, path))
+        else:
+            check_value(path, value, where)
+            flat[path] = value
+    return flat
+
+
+def apply_overrides(scenario: Scenario, overrides: dict) -> Scenario:
+    """A copy of scenario with each dotted path set; ScenarioError(path, ...) on a bad one.
+
+    Values are plain data checked against the schema (as in a scenario file); the result is not
+    validated as a whole (validate_scenario does that).
+    """
+    scenario = copy.deepcopy(scenario)
+    for path, value in overrides.items():
+        annotation = field_annotation(path)
+        _check(value, annotation, path)
+        tokens = _tokens(path)
+        parent = scenario
+        for name, indices in tokens[:-1]:
+            parent = getattr(parent, name)
+            for index in indices:
+                parent = parent[index]
+        name, indices = tokens[-1]
+        if not indices:
+            setattr(parent, name, _coerce(value, annotation))
+            continue
+        container = getattr(parent, name)
+        for index in indices[:-1]:
+            container = container[index]
+        if indices[-1] >= len(container):
+            raise ScenarioError(path, f"index {indices[-1]} out of range ({len(container)} items)")
+        container[indices[-1]] = _coerce(value, annotation)
+    return scenario
+
+
+def _overlap(a: str, b: str) -> bool:
+    """True when setting path a and path b touches the same value."""
+    return a == b or b.startswith((a + ".", a + "[")) or a.startswith((b + ".", b + "["))
+
+
+# ---------------------------------------------------------------------------------------------
+# The campaign file.
+
+
+@dataclasses.dataclass(frozen=True)
+class SampleBlock:
+    """A campaign's `sample:` block, checked."""
+
+    count: int
+    seed: int
+    fields: dict  # dotted path -> sampling.Distribution
+    passively_safe: sampling.PassivelySafeSampler | None
+
+
+@dataclasses.dataclass(frozen=True)
+class Campaign:
+    """A loaded, checked campaign file.
+
+    Attributes:
+        name: the file's stem (the default output folder is runs/<name>).
+        source: the file, as named in error messages.
+        text: the file's text (kept in the results store).
+        description: one line shown by `rpod list`.
+        base_name: the base scenario's name (its file stem).
+        base: the base scenario with the campaign's `overrides` applied.
+        grid: dotted path -> list of values, in file order.
+        cases: (name, overrides) pairs, in file order.
+        sample: the sample block, or None.
+        timeout_s: default per-run timeout, or None for no limit.
+    """
+
+    name: str
+    source: str
+    text: str
+    description: str
+    base_name: str
+    base: Scenario
+    grid: dict
+    cases: list
+    sample: SampleBlock | None
+    timeout_s: float | None
+
+    @property
+    def base_yaml(self) -> str:
+        """The base scenario (after `overrides`) as YAML, every field written."""
+        return yaml_dump_typed(self.base)
+
+    def with_seed(self, seed: int) -> "Campaign":
+        """The same campaign with another sampling seed."""
+        if self.sample is None:
+            raise ScenarioFileError(
+                f"{self.source}: sample.seed: a seed was given but the "
+                "campaign samples nothing (it has no sample block)"
+            )
+        return dataclasses.replace(self, sample=dataclasses.replace(self.sample, seed=seed))
+
+
+@dataclasses.dataclass(frozen=True)
+class PlannedRun:
+    """One run of a campaign: plain data, the same on every machine.
+
+    Attributes:
+        run_id: stable id (see the module docstring).
+        index: position in the plan (case-major, then grid, then sample).
+        group: label of its case and grid point ('all' when there are neither).
+        case: the case name, or ''.
+        grid_point: dotted path -> value of its grid point.
+        sample_index: its sample number, or None.
+        overrides: every override of this run on top of the campaign's base.
+    """
+
+    run_id: str
+    index: int
+    group: str
+    case: str
+    grid_point: dict
+    sample_index: int | None
+    overrides: dict
+
+
+def _error(source: str, error: ScenarioError) -> ScenarioFileError:
+    return ScenarioFileError(f"{source}: {error.field}: {error.message}")
+
+
+def _require_int(value, location: str, minimum: int) -> int:
+    if not isinstance(value, int) or isinstance(value, bool) or value < minimum:
+        raise ScenarioError(location, f"expected an integer >= {minimum}, got {value!r}")
+    return value
+
+
+def _parse_grid(data) -> dict:
+    if not isinstance(data, dict) or not data:
+        raise ScenarioError(
+            "grid", "empty grid: give at least one field path with a list of values"
+        )
+    grid = {}
+    for path, values in data.items():
+        location = f"grid.{path}"
+        try:
+            field_annotation(path)
+        except ScenarioError as error:
+            raise ScenarioError(location, error.message) from None
+        if not isinstance(values, list) or not values:
+            raise ScenarioError(
+                location, f"empty grid: expected a non-empty list of values, got {values!r}"
+            )
+        for index, value in enumerate(values):
+            check_value(path, value, f"{location}[{index}]")
+            if value in values[:index]:
+                raise ScenarioError(f"{location}[{index}]", f"{value!r} is listed twice")
+        grid[str(path)] = values
+    return grid
+
+
+def _parse_cases(data) -> list:
+    if not isinstance(data, list) or not data:
+        raise ScenarioError("cases", "expected a non-empty list of {name, overrides}")
+    cases, names = [], set()
+    for index, case in enumerate(data):
+        location = f"cases[{index}]"
+        if not isinstance(case, dict):
+            raise ScenarioError(location, "expected a mapping with name and overrides")
+        for key in case:
+            if key not in ("name", "overrides"):
+                raise ScenarioError(f"{location}.{key}", "unknown key (known: name, overrides)")
+        name = case.get("name", f"case{index}")
+        if not isinstance(name, str) or not name or name in names:
+            raise ScenarioError(
+                f"{location}.name", f"expected a unique non-empty name, got {name!r}"
+            )
+        names.add(name)
+        overrides = flatten_overrides(case.get("overrides", {}), f"{location}.overrides")
+        cases.append((name, overrides))
+    return cases
+
+
+def _parse_sample(data) -> SampleBlock:
+    if not isinstance(data, dict):
+        raise ScenarioError("sample", "expected a mapping with count, seed, fields, passively_safe")
+    for key in data:
+        if key not in SAMPLE_KEYS:
+            raise ScenarioError(f"sample.{key}", f"unknown key (known: {', '.join(SAMPLE_KEYS)})")
+    count = _require_int(data.get("count"), "sample.count", 1)
+    seed = _require_int(data.get("seed", 0), "sample.seed", 0)
+    fields = {}
+    raw_fields = data.get("fields", {})
+    if not isinstance(raw_fields, dict):
+        raise ScenarioError("sample.fields", "expected a mapping of field paths to distributions")
+    for path, spec in raw_fields.items():
+        location = f"sample.fields.{path}"
+        try:
+            annotation = field_annotation(path)
+        except ScenarioError as error:
+            raise ScenarioError(location, error.message) from None
+        distribution = sampling.parse_distribution(spec, location)
+        if dataclasses.is_dataclass(annotation):
+            raise ScenarioError(location, f"{path} is a group of fields; name one of its fields")
+        fields[str(path)] = distribution
+    passively_safe = None
+    if "passively_safe" in data:
+        passively_safe = sampling.parse_passively_safe(
+            data["passively_safe"], "sample.passively_safe"
+        )
+        for path in fields:
+            for target in sampling.PASSIVELY_SAFE_FIELDS:
+                if _overlap(path, target):
+                    raise ScenarioError(
+                        f"sample.fields.{path}", f"passively_safe already sets {target}"
+                    )
+    if not fields and passively_safe is None:
+        raise ScenarioError("sample", "samples nothing: give fields or passively_safe")
+    return SampleBlock(count, seed, fields, passively_safe)
+
+
+def _check_no_conflicts(grid: dict, cases: list, sample: SampleBlock | None) -> None:
+    """Grid, sample and cases must not set the same field (which one would win is unclear)."""
+    setters = [(f"grid.{p}", p) for p in grid]
+    if sample is not None:
+        setters += [(f"sample.fields.{p}", p) for p in sample.fields]
+        if sample.passively_safe is not None:
+            setters += [("sample.passively_safe", p) for p in sampling.PASSIVELY_SAFE_FIELDS]
+    for (where_a, a), (where_b, b) in itertools.combinations(setters, 2):
+        if where_a != where_b and _overlap(a, b):
+            raise ScenarioError(where_b, f"sets {b}, which {where_a} also sets")
+    for index, (_, overrides) in enumerate(cases):
+        for path in overrides:
+            for where, other in setters:
+                if _overlap(path, other):
+                    raise ScenarioError(
+                        f"cases[{index}].overrides.{path}", f"{where} also sets this field"
+                    )
+
+
+def parse_campaign(text: str, source: str, name: str, base_dir: pathlib.Path) -> Campaign:
+    """A Campaign from YAML text; ScenarioFileError('source: location: message') on a problem."""
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as error:
+        mark = getattr(error, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        problem = getattr(error, "problem", None) or str(error).splitlines()[0]
+        raise ScenarioFileError(f"{source}: YAML syntax error{where}: {problem}") from None
+    try:
+        if not isinstance(data, dict):
+            raise ScenarioError("(top level)", "expected a mapping with base and grid/cases/sample")
+        for key in data:
+            if key not in TOP_LEVEL_KEYS:
+                raise ScenarioError(str(key), f"unknown key (known: {', '.join(TOP_LEVEL_KEYS)})")
+        if "base" not in data or not isinstance(data["base"], str):
+            raise ScenarioError("base", "missing: name a bundled scenario or a scenario file")
+        description = data.get("description", "")
+        if not isinstance(description, str):
+            raise ScenarioError("description", "expected a string")
+        timeout_s = data.get("timeout_s")
+        if timeout_s is not None and (
+            isinstance(timeout_s, bool)
+            or not isinstance(timeout_s, (int, float))
+            or not timeout_s > 0
+        ):
+            raise ScenarioError(
+                "timeout_s", f"expected a positive number of seconds, got {timeout_s!r}"
+            )
+        overrides = flatten_overrides(data.get("overrides", {}), "overrides")
+        grid = _parse_grid(data["grid"]) if "grid" in data else {}
+        cases = _parse_cases(data["cases"]) if "cases" in data else []
+        sample = _parse_sample(data["sample"]) if "sample" in data else None
+        if not grid and not cases and sample is None:
+            raise ScenarioError("(top level)", "nothing to vary: give grid, cases or sample")
+        _check_no_conflicts(grid, cases, sample)
+    except ScenarioError as error:
+        raise _error(source, error) from None
+
+    base_path = base_dir / data["base"]
+    try:
+        base_name, base = load_scenario(str(base_path) if base_path.is_file() else data["base"])
+    except ScenarioFileError as error:
+        if not base_path.is_file() and "no such file" in str(error):
+            raise ScenarioFileError(f"{source}: base: {error}") from None
+        raise  # a problem inside the base file names that file and field
+    try:
+        base = apply_overrides(base, overrides)
+        validate_scenario(base)
+    except ScenarioError as error:
+        raise ScenarioFileError(f"{source}: overrides.{error.field}: {error.message}") from None
+    return Campaign(
+        name,
+        source,
+        text,
+        description,
+        base_name,
+        base,
+        grid,
+        cases,
+        sample,
+        None if timeout_s is None else float(timeout_s),
+    )
+
+
+def bundled_campaigns() -> dict[str, pathlib.Path]:
+    """Bundled campaign names -> their files."""
+    return {path.stem: path for path in sorted(CAMPAIGNS_DIR.glob("*.yaml"))}
+
+
+def load_campaign(name_or_path: str) -> Campaign:
+    """A campaign from a path or a bundled name; ScenarioFileError on any problem."""
+    path = pathlib.Path(name_or_path)
+    if not path.is_file():
+        bundled = bundled_campaigns()
+        if name_or_path in bundled:
+            path = bundled[name_or_path]
+        elif path.suffix or "/" in name_or_path:
+            raise ScenarioFileError(f"{name_or_path}: no such file")
+        else:
+            raise ScenarioFileError(
+                f"{name_or_path}: no such file or bundled campaign (bundled: {', '.join(bundled)})"
+            )
+    try:
+        text = path.read_text()
+    except (OSError, UnicodeDecodeError) as error:
+        raise ScenarioFileError(f"{path}: cannot read: {error}") from None
+    return parse_campaign(text, str(path), path.stem, path.resolve().parent)
+
+
+# ---------------------------------------------------------------------------------------------
+# The plan.
+
+
+def _rng(seed: int, index: int, key: str) -> np.random.Generator:
+    """The Generator of one sampled field of one sample: independent of every other field."""
+    return np.random.default_rng(
+        np.random.SeedSequence(seed, spawn_key=(index, zlib.crc32(key.encode())))
+    )
+
+
+def draw_sample(sample: SampleBlock, index: int) -> tuple[dict, dict | None]:
+    """(field overrides, passively safe draw or None) of sample number `index`."""
+    fields = {path: d.draw(_rng(sample.seed, index, path)) for path, d in sample.fields.items()}
+    safe = None
+    if sample.passively_safe is not None:
+        safe = sample.passively_safe.draw(
+            lambda name: _rng(sample.seed, index, f"passively_safe.{name}")
+        )
+    return fields, safe
+
+
+def run_id(base_data: dict, overrides: dict, sample_key) -> str:
+    """The stable id of a run (see the module docstring)."""
+    canonical = json.dumps(
+        {"base": base_data, "overrides": overrides, "sample": sample_key},
+        sort_keys=True,
+        separators=(",", ":"),
+        allow_nan=False,
+    )
+    return hashlib.sha256(canonical.encode()).hexdigest()[:16]
+
+
+def _label(value) -> str:
+    return value if isinstance(value, str) else json.dumps(value)
+
+
+def plan_runs(campaign: Campaign) -> list[PlannedRun]:
+    """Every run of the campaign, each applied to the base and validated (nothing is run).
+
+    Raises ScenarioFileError naming the campaign location whose value makes a run invalid.
+    """
+    base_data = dataclasses.asdict(campaign.base)
+    grid_paths = list(campaign.grid)
+    grid_points = [
+        dict(zip(grid_paths, values)) for values in itertools.product(*campaign.grid.values())
+    ] or [{}]
+    cases = campaign.cases or [("", {})]
+    sample = campaign.sample
+    samples = [draw_sample(sample, k) for k in range(sample.count)] if sample else [({}, None)]
+
+    runs, seen = [], {}
+    for case_index, (case_name, case_overrides) in enumerate(cases):
+        for grid_point in grid_points:
+            group = (
+                " | ".join(
+                    ([case_name] if case_name else [])
+                    + [f"{path}={_label(value)}" for path, value in grid_point.items()]
+                )
+                or "all"
+            )
+            for sample_index, (fields, safe) in enumerate(samples):
+                locations = {p: f"cases[{case_index}].overrides.{p}" for p in case_overrides}
+                locations.update({p: f"grid.{p}" for p in grid_point})
+                locations.update({p: f"sample.fields.{p}" for p in fields})
+                overrides = {**case_overrides, **grid_point, **fields}
+                try:
+                    scenario = apply_overrides(campaign.base, overrides)
+                    if safe is not None:
+                        if scenario.orbit.gravity == "free_space":
+                            raise ScenarioError(
+                                "sample.passively_safe",
+                                "needs an orbit, and orbit.gravity is free_space",
+                            )
+                        n = sampling.mean_motion(scenario.orbit.altitude_m)
+                        safe_overrides = sampling.passively_safe_overrides(safe, n)
+                        locations.update({p: "sample.passively_safe" for p in safe_overrides})
+                        overrides.update(safe_overrides)
+                        scenario = apply_overrides(scenario, safe_overrides)
+                    validate_scenario(scenario)
+                except ScenarioError as error:
+                    where = next(
+                        (loc for p, loc in locations.items() if _overlap(p, error.field)),
+                        error.field,
+                    )
+                    which = f"run {len(runs)} ({group}" + (
+                        f", sample {sample_index})" if sample else ")"
+                    )
+                    raise ScenarioFileError(
+                        f"{campaign.source}: {where}: {which}: {error.field}: {error.message}"
+                    ) from None
+                sample_key = [sample.seed, sample_index] if sample else None
+                identifier = run_id(base_data, overrides, sample_key)
+                if identifier in seen:
+                    raise ScenarioFileError(  # only cases can repeat: grid values are unique
+                        f"{campaign.source}: cases[{case_index}]: run {len(runs)} ({group}) is "
+                        f"the same run as run {seen[identifier]} (same overrides)"
+                    )
+                seen[identifier] = len(runs)
+                runs.append(
+                    PlannedRun(
+                        identifier,
+                        len(runs),
+                        group,
+                        case_name,
+                        grid_point,
+                        sample_index if sample else None,
+                        overrides,
+                    )
+                )
+    return runs

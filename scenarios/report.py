@@ -1,0 +1,256 @@
+"""`rpod report RESULTS`: a campaign's results as tables and plots.
+
+Owns: per-group statistics (count, success rate, metric medians and 5th/95th percentiles), the
+failure reasons, and the plots (one histogram per metric, with one series per group; and, for a
+campaign with a two-parameter grid, 2-D maps of the success rate and of each metric's median).
+Does not own: the store (store.py) or the runs.
+
+Statistics are over the runs whose status is `ok`. A failed run has no trustworthy metrics: a
+timeout or crash has none, and a simulation that failed stopped early. A boolean metric
+(e.g. `hold_reached`) is reported as the share of runs where it is true. Plots use
+matplotlib's object API (Figure, no pyplot), so they are safe in any process.
+"""
+
+import pathlib
+import re
+
+import numpy as np
+
+from rpod.scenarios.store import ResultStore, store_path
+
+MAX_GROUPS_PER_HISTOGRAM = 8
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def metric_names(rows: list[dict]) -> list[str]:
+    """Scalar metrics (numbers and booleans) of the ok runs, in order of first appearance."""
+    names = {}
+    for row in rows:
+        if row["status"] == "ok" and row["metrics"]:
+            for key, value in row["metrics"].items():
+                if _is_number(value) or isinstance(value, bool):
+                    names.setdefault(key, None)
+    return list(names)
+
+
+def _groups(rows: list[dict]) -> dict[str, list[dict]]:
+    groups = {}
+    for row in rows:
+        groups.setdefault(row["grp"], []).append(row)
+    return groups
+
+
+def _values(rows: list[dict], metric: str) -> np.ndarray:
+    values = [
+        row["metrics"].get(metric) for row in rows if row["status"] == "ok" and row["metrics"]
+    ]
+    return np.array([float(v) for v in values if _is_number(v) or isinstance(v, bool)])
+
+
+def _format(value: float) -> str:
+    return f"{value:.4g}"
+
+
+def _table(header: list[str], rows: list[list[str]], right: set[int]) -> list[str]:
+    widths = [max(len(str(cell)) for cell in column) for column in zip(header, *rows)]
+
+    def line(cells):
+        return "  ".join(
+            str(c).rjust(w) if i in right else str(c).ljust(w)
+            for i, (c, w) in enumerate(zip(cells, widths))
+        ).rstrip()
+
+    return [line(header), line(["-" * w for w in widths])] + [line(r) for r in rows]
+
+
+def summary_text(meta: dict, rows: list[dict], metrics: list[str]) -> str:
+    """The report's tables as plain text."""
+    groups = _groups(rows)
+    lines = [
+        f"Campaign {meta.get('campaign_name', '?')}: {len(rows)} runs, base "
+        f"{meta.get('base_name', '?')}",
+        "",
+    ]
+    group_rows = []
+    for name, members in groups.items():
+        statuses = [m["status"] for m in members]
+        ok, failed = statuses.count("ok"), statuses.count("failed")
+        done = ok + failed
+        group_rows.append(
+            [
+                name,
+                len(members),
+                ok,
+                failed,
+                statuses.count("pending"),
+                f"{100.0 * ok / done:.1f}%" if done else "--",
+            ]
+        )
+    lines += _table(
+        ["group", "runs", "ok", "failed", "pending", "success"], group_rows, {1, 2, 3, 4, 5}
+    )
+
+    bools = {m for m in metrics if any(isinstance((r["metrics"] or {}).get(m), bool) for r in rows)}
+    metric_rows = []
+    for name, members in groups.items():
+        for metric in metrics:
+            values = _values(members, metric)
+            if values.size == 0:
+                continue
+            if metric in bools:
+                metric_rows.append(
+                    [name, metric, values.size, f"{100.0 * values.mean():.1f}% true", "", ""]
+                )
+            else:
+                p5, p50, p95 = np.percentile(values, [5, 50, 95])
+                metric_rows.append(
+                    [name, metric, values.size, _format(p50), _format(p5), _format(p95)]
+                )
+    if metric_rows:
+        lines += ["", "Metrics over the ok runs of each group:", ""]
+        lines += _table(["group", "metric", "n", "median", "p5", "p95"], metric_rows, {2, 3, 4, 5})
+
+    reasons = {}
+    for row in rows:
+        if row["status"] == "failed":
+            reason = (row["reason"] or "(no reason)")[:100]
+            reasons[reason] = reasons.get(reason, 0) + 1
+    if reasons:
+        lines += ["", "Failures:", ""]
+        lines += _table(
+            ["runs", "reason"],
+            [[n, r] for r, n in sorted(reasons.items(), key=lambda item: -item[1])],
+            {0},
+        )
+    return "\n".join(lines)
+
+
+def _safe_name(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_") or "all"
+
+
+def _save(figure, path: pathlib.Path) -> pathlib.Path:
+    figure.tight_layout()
+    figure.savefig(path, dpi=110)
+    return path
+
+
+def _histograms(rows, metrics, out_dir: pathlib.Path) -> list[pathlib.Path]:
+    from matplotlib.figure import Figure
+
+    groups = _groups(rows)
+    series = groups if len(groups) <= MAX_GROUPS_PER_HISTOGRAM else {"all runs": rows}
+    paths = []
+    for metric in metrics:
+        data = {name: _values(members, metric) for name, members in series.items()}
+        data = {name: values for name, values in data.items() if values.size}
+        if not data:
+            continue
+        everything = np.concatenate(list(data.values()))
+        low, high = float(everything.min()), float(everything.max())
+        if high <= low:
+            low, high = low - 0.5 * max(abs(low), 1.0), high + 0.5 * max(abs(high), 1.0)
+        bins = np.linspace(low, high, 21)
+        figure = Figure(figsize=(7, 4))
+        axes = figure.add_subplot()
+        for name, values in data.items():
+            axes.hist(
+                values, bins=bins, histtype="step", linewidth=1.5, label=f"{name} ({values.size})"
+            )
+        axes.set_xlabel(metric)
+        axes.set_ylabel("runs")
+        axes.set_title(f"{metric}: ok runs")
+        if len(data) > 1:
+            axes.legend(fontsize=7)
+        paths.append(_save(figure, out_dir / f"hist_{_safe_name(metric)}.png"))
+    return paths
+
+
+def _grid_maps(meta, rows, metrics, out_dir: pathlib.Path) -> list[pathlib.Path]:
+    """For a 2-parameter grid: success rate and median of each metric per grid point."""
+    from matplotlib.figure import Figure
+
+    grid = meta.get("grid") or {}
+    if len(grid) != 2:
+        return []
+    (x_path, x_values), (y_path, y_values) = grid.items()
+    paths = []
+    for case in sorted({row["case_name"] for row in rows}):
+        members = [row for row in rows if row["case_name"] == case]
+        cells = {}
+        for row in members:
+            point = row["grid_point"]
+            key = (x_values.index(point[x_path]), y_values.index(point[y_path]))
+            cells.setdefault(key, []).append(row)
+        maps = {
+            "success_rate": lambda rs: (
+                sum(r["status"] == "ok" for r in rs)
+                / max(1, sum(r["status"] != "pending" for r in rs))
+            )
+        }
+        for metric in metrics:
+            maps[metric] = lambda rs, m=metric: (
+                float(np.median(v)) if (v := _values(rs, m)).size else np.nan
+            )
+        for name, statistic in maps.items():
+            image = np.full((len(y_values), len(x_values)), np.nan)
+            for (i, j), rs in cells.items():
+                image[j, i] = statistic(rs)
+            if np.all(np.isnan(image)):
+                continue
+            figure = Figure(figsize=(1.6 + 1.3 * len(x_values), 1.4 + 0.8 * len(y_values)))
+            axes = figure.add_subplot()
+            mesh = axes.imshow(image, origin="lower", aspect="auto", cmap="viridis")
+            for (j, i), value in np.ndenumerate(image):
+                if np.isfinite(value):
+                    axes.text(
+                        i,
+                        j,
+                        _format(value),
+                        ha="center",
+                        va="center",
+                        fontsize=8,
+                        color="white" if value < np.nanmean(image) else "black",
+                    )
+            axes.set_xticks(range(len(x_values)), [str(v) for v in x_values], fontsize=8)
+            axes.set_yticks(range(len(y_values)), [str(v) for v in y_values], fontsize=8)
+            axes.set_xlabel(x_path)
+            axes.set_ylabel(y_path)
+            label = "success rate" if name == "success_rate" else f"median {name}"
+            axes.set_title(f"{label}" + (f" ({case})" if case else ""), fontsize=10)
+            figure.colorbar(mesh, ax=axes)
+            stem = f"map_{_safe_name(name)}" + (f"_{_safe_name(case)}" if case else "")
+            paths.append(_save(figure, out_dir / f"{stem}.png"))
+    return paths
+
+
+def write_report(results, out_dir=None, metrics: list[str] | None = None):
+    """(summary text, plot paths); writes report.md and the plots into out_dir.
+
+    Args:
+        results: a campaign output folder or its results.sqlite.
+        out_dir: where to write (default: <results folder>/report).
+        metrics: metrics to summarise (default: every scalar metric of the ok runs).
+    """
+    with ResultStore.open_existing(results) as store:
+        meta, rows = store.meta(), store.rows()
+    names = metric_names(rows)
+    if metrics:
+        unknown = [m for m in metrics if m not in names]
+        if unknown:
+            from rpod.scenarios.loader import ScenarioFileError
+
+            raise ScenarioFileError(
+                f"{results}: --metrics: unknown metric(s) {', '.join(unknown)} "
+                f"(known: {', '.join(names) or 'none: no run finished ok'})"
+            )
+        names = metrics
+    out_dir = pathlib.Path(out_dir) if out_dir else store_path(results).parent / "report"
+    out_dir.mkdir(parents=True, exist_ok=True)
+    text = summary_text(meta, rows, names)
+    (out_dir / "report.md").write_text("```\n" + text + "\n```\n")
+    plots = _histograms(rows, names, out_dir) + _grid_maps(meta, rows, names, out_dir)
+    return text, plots

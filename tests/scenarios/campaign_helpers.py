@@ -1,0 +1,169 @@
+"""Helpers of the campaign tests: the `rpod` CLI in a subprocess, small campaign files, polling
+the results store, killing process groups. Fixtures are in conftest.py.
+"""
+
+import json
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+
+CLI_TIMEOUT_S = 300  # an upper bound against hangs, far above the ~10 s these campaigns take
+
+# 8 fast runs: a 2 x 2 grid x 2 samples of a short coast (~30 ms of simulation each).
+SMALL_CAMPAIGN = """\
+description: "test: 2 x 2 grid x 2 samples of a short coast"
+base: coast
+overrides: {duration_s: 40.0, log_period_s: 5.0}
+grid:
+  chaser.p_LC_L[1]: [-50.0, -100.0]
+  duration_s: [20.0, 40.0]
+sample:
+  count: 2
+  seed: 11
+  fields:
+    target.w_IT_T_deg_s: {dist: direction, scale: {dist: uniform, low: 0.5, high: 5.0}}
+    chaser.v_LC_L[2]: {dist: normal, mean: 0.0, std: 0.01}
+"""
+
+# 10 runs of ~0.4 s each (15 s of the closed-loop hold-point approach): slow enough to be
+# killed mid-campaign by polling the store every 0.1 s (the tests check that runs were pending).
+SLOW_CAMPAIGN = """\
+description: "test: 10 short hold-point runs"
+base: hold_point
+overrides: {duration_s: 15.0, log_period_s: 1.0}
+grid:
+  chaser.p_LC_L[1]: [-20.0, -22.0, -24.0, -26.0, -28.0, -30.0, -32.0, -34.0, -36.0, -38.0]
+"""
+
+# Metrics that depend only on the scenario, not on timing.
+DETERMINISTIC = [
+    "final_p_LC_L",
+    "final_range_m",
+    "final_speed_m_s",
+    "min_separation_m",
+    "max_corridor_violation_deg",
+    "delta_v_m_s",
+    "integrator_steps",
+    "derivative_evaluations",
+    "sim_time_s",
+]
+
+
+def rpod_command(*args) -> list[str]:
+    return [sys.executable, "-m", "rpod.scenarios.cli", *args]
+
+
+def run_rpod(*args, cwd, env=None, timeout=CLI_TIMEOUT_S) -> subprocess.CompletedProcess:
+    """Runs the real console entry point and returns the completed process."""
+    return subprocess.run(
+        rpod_command(*args), cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout
+    )
+
+
+def store_counts(store_file) -> dict:
+    """{'ok': n, 'failed': n, 'pending': n} read from a results store (zeros if absent)."""
+    counts = {"ok": 0, "failed": 0, "pending": 0}
+    if not os.path.exists(store_file):
+        return counts
+    try:
+        connection = sqlite3.connect(f"file:{store_file}?mode=ro", uri=True, timeout=5)
+        try:
+            for status, count in connection.execute(
+                "SELECT status, COUNT(*) FROM runs GROUP BY status"
+            ):
+                counts[status] = count
+        finally:
+            connection.close()
+    except sqlite3.OperationalError:  # the table is not there yet
+        pass
+    return counts
+
+
+def wait_until(predicate, timeout_s: float, what: str, poll_s: float = 0.1):
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        value = predicate()
+        if value:
+            return value
+        time.sleep(poll_s)
+    raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
+
+
+def kill_group(process: subprocess.Popen) -> None:
+    """SIGKILLs a process started with start_new_session=True, with all its children."""
+    try:
+        os.killpg(process.pid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
+    try:
+        process.wait(timeout=10)
+    except subprocess.TimeoutExpired:  # pragma: no cover - SIGKILL does not fail
+        pass
+
+
+class DaskCluster:
+    """A scheduler and workers, each a separate `python -m distributed.cli...` process."""
+
+    def __init__(self, spawn, folder, workers: int):
+        self.folder = folder
+        scheduler_file = folder / "scheduler.json"
+        self.logs = []
+        self.scheduler = spawn(
+            [
+                sys.executable,
+                "-m",
+                "distributed.cli.dask_scheduler",
+                "--host",
+                "127.0.0.1",
+                "--port",
+                "0",
+                "--no-dashboard",
+                "--scheduler-file",
+                str(scheduler_file),
+            ],
+            stdout=self._log("scheduler"),
+            stderr=subprocess.STDOUT,
+        )
+        wait_until(
+            lambda: scheduler_file.is_file() and scheduler_file.stat().st_size > 0,
+            60,
+            "the scheduler file",
+        )
+        self.address = json.loads(scheduler_file.read_text())["address"]
+        assert self.address.startswith("tcp://127.0.0.1:"), self.address
+        self.workers = [
+            spawn(
+                [
+                    sys.executable,
+                    "-m",
+                    "distributed.cli.dask_worker",
+                    self.address,
+                    "--nthreads",
+                    "1",
+                    "--nworkers",
+                    "1",
+                    "--no-dashboard",
+                    "--host",
+                    "127.0.0.1",
+                    "--name",
+                    f"test-worker-{index}",
+                    "--death-timeout",
+                    "60",
+                ],
+                stdout=self._log(f"worker{index}"),
+                stderr=subprocess.STDOUT,
+            )
+            for index in range(workers)
+        ]
+        from distributed import Client
+
+        with Client(self.address, timeout=30) as client:
+            client.wait_for_workers(workers, timeout=60)
+
+    def _log(self, name):
+        handle = open(self.folder / f"{name}.log", "w")
+        self.logs.append(handle)
+        return handle
