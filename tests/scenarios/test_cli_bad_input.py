@@ -127,3 +127,17 @@ def test_good_file_with_only_some_fields_gets_defaults():
     scenario = parse_scenario(f"chaser:\n  mass_kg: 250\n  inertia_kg_m2: {GOOD_INERTIA}\n")
     assert scenario.chaser.mass_kg == 250.0
     assert scenario.target == Scenario().target
+
+
+def test_run_without_a_scenario_runs_the_default(tmp_path, monkeypatch):
+    """`rpod run` with no argument means `rpod run hold_point` (parsed, not simulated here)."""
+    from rpod.scenarios.cli import DEFAULT_SCENARIO, make_parser
+
+    args = make_parser().parse_args(["run"])
+    assert args.scenario == DEFAULT_SCENARIO == "hold_point"
+
+
+def test_plan_of_a_scenario_without_a_planner_exits_2(tmp_path):
+    process = run_rpod("plan", "hold_point", "--out", str(tmp_path / "out"), cwd=tmp_path)
+    assert_one_line_error(process, "hold_point")
+    assert list(tmp_path.iterdir()) == []
