@@ -198,17 +198,7 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
                     np.asarray(target.docking_axis_T, float),
                 ),
             )
-            for name, port in sensed.items():
-                connect(port, controller.GetInputPort(name))
-            allocator = builder.AddNamedSystem("wrench_allocator", WrenchAllocator(layout))
-            connect(
-                controller.GetOutputPort("body_wrench_desired"),
-                allocator.GetInputPort("body_wrench_desired"),
-            )
-            duty = allocator.GetOutputPort("thruster_duty")
-            log("body_wrench_desired", controller.GetOutputPort("body_wrench_desired"))
-            log("hold_point_L", controller.GetOutputPort("hold_point_L"))
-            log("reference_L", controller.GetOutputPort("reference_L"))
+            logged = ("body_wrench_desired", "hold_point_L", "reference_L")
         elif scenario.controller.type == "soft_capture":
             controller = builder.AddNamedSystem(
                 "soft_capture_controller",
@@ -216,6 +206,9 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
                     scenario.controller.soft_capture, J_C, J_T, chaser_shape, target_shape
                 ),
             )
+            logged = ("body_wrench_desired", "reference_L", "force_feedforward_L",
+                      "controller_mode", "planner_status")  # fmt: skip
+        if controller is not None:  # every controller: sensed signals in, body wrench out
             for name, port in sensed.items():
                 connect(port, controller.GetInputPort(name))
             allocator = builder.AddNamedSystem("wrench_allocator", WrenchAllocator(layout))
@@ -224,8 +217,7 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
                 allocator.GetInputPort("body_wrench_desired"),
             )
             duty = allocator.GetOutputPort("thruster_duty")
-            for name in ("body_wrench_desired", "reference_L", "force_feedforward_L",
-                         "controller_mode", "planner_status"):  # fmt: skip
+            for name in logged:
                 log(name, controller.GetOutputPort(name))
         else:
             idle = builder.AddNamedSystem("idle", ConstantVectorSource(np.zeros(layout.count)))

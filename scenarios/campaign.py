@@ -48,7 +48,6 @@ import typing
 import zlib
 
 import numpy as np
-import yaml
 from pydrake.common.yaml import yaml_dump_typed
 
 from rpod.diagrams.scenario import Scenario, ScenarioError, validate_scenario
@@ -58,6 +57,7 @@ from rpod.scenarios.loader import (
     ScenarioFileError,
     _check,
     load_scenario,
+    read_yaml,
 )
 
 CAMPAIGNS_DIR = BUNDLED_DIR / "campaigns"
@@ -372,13 +372,7 @@ def _check_no_conflicts(grid: dict, cases: list, sample: SampleBlock | None) -> 
 
 def parse_campaign(text: str, source: str, name: str, base_dir: pathlib.Path) -> Campaign:
     """A Campaign from YAML text; ScenarioFileError('source: location: message') on a problem."""
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as error:
-        mark = getattr(error, "problem_mark", None)
-        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        problem = getattr(error, "problem", None) or str(error).splitlines()[0]
-        raise ScenarioFileError(f"{source}: YAML syntax error{where}: {problem}") from None
+    data = read_yaml(text, source)
     try:
         if not isinstance(data, dict):
             raise ScenarioError("(top level)", "expected a mapping with base and grid/cases/sample")

@@ -96,15 +96,20 @@ def _check(value, annotation, field: str) -> None:
         raise ScenarioError(field, f"expected {expected}, got {value!r}")
 
 
-def parse_scenario(text: str, source: str = "<string>") -> Scenario:
-    """Scenario from YAML text; errors are ScenarioFileError('source: field: message')."""
+def read_yaml(text: str, source: str):
+    """Plain data from YAML text; a syntax error is ScenarioFileError with its line and column."""
     try:
-        data = yaml.safe_load(text)
+        return yaml.safe_load(text)
     except yaml.YAMLError as error:
         mark = getattr(error, "problem_mark", None)
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
         problem = getattr(error, "problem", None) or str(error).splitlines()[0]
         raise ScenarioFileError(f"{source}: YAML syntax error{where}: {problem}") from None
+
+
+def parse_scenario(text: str, source: str = "<string>") -> Scenario:
+    """Scenario from YAML text; errors are ScenarioFileError('source: field: message')."""
+    data = read_yaml(text, source)
     if data is None:
         data = {}
     try:

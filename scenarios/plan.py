@@ -30,9 +30,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-import os
 import pathlib
-import shutil
 import time
 
 import numpy as np
@@ -45,7 +43,7 @@ from rpod.models.frames import quaternion_wxyz, rotation_from_rpy_deg
 from rpod.planners.plan_check import check_plan
 from rpod.planners.soft_capture import SoftCapturePlanner, predict_for_planner
 from rpod.scenarios.loader import ScenarioFileError
-from rpod.scenarios.run import _replace_folder
+from rpod.scenarios.run import staged_folder
 
 
 @dataclasses.dataclass
@@ -181,12 +179,7 @@ def plan_to_folder(
     if result.plan.N >= 2:
         report = check_plan(result.plan, result.config, result.prediction, x0=result.x0,
                             chaser_hull=result.chaser_hull, target_hull=result.target_hull)  # fmt: skip
-    out_dir = pathlib.Path(out_dir)
-    out_dir.parent.mkdir(parents=True, exist_ok=True)
-    staging = out_dir.with_name(f".{out_dir.name}.partial-{os.getpid()}")
-    shutil.rmtree(staging, ignore_errors=True)
-    staging.mkdir()
-    try:
+    with staged_folder(out_dir) as staging:
         arrays = plan_arrays(result, None if report is None else report.alpha_check)
         np.savez_compressed(staging / "plan.npz", **arrays)
         (staging / "scenario.yaml").write_text(yaml_dump_typed(scenario))
@@ -194,8 +187,4 @@ def plan_to_folder(
         summary["plots"] = [p.name for p in write_plan_plots(arrays, staging / "plots", name)]
         # summary.json last: its presence marks a complete plan inside the folder too.
         (staging / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-        _replace_folder(staging, out_dir)
-    except BaseException:
-        shutil.rmtree(staging, ignore_errors=True)
-        raise
     return summary

@@ -7,6 +7,7 @@ and a previous complete run of the same name is only replaced by a complete one)
 Does not own: parsing (loader.py) or the command line (cli.py).
 """
 
+import contextlib
 import json
 import os
 import pathlib
@@ -31,16 +32,31 @@ def _replace_folder(staging: pathlib.Path, destination: pathlib.Path) -> None:
         shutil.rmtree(retired, ignore_errors=True)
 
 
-def run_to_folder(
-    name: str, scenario: Scenario, out_dir: pathlib.Path, record: bool = True
-) -> dict:
-    """Simulates `scenario` and writes its outputs into out_dir; returns the summary."""
+@contextlib.contextmanager
+def staged_folder(out_dir: pathlib.Path):
+    """Yields a hidden sibling folder to write into; renames it to out_dir only on success.
+
+    On any exception (Ctrl-C included) the staging folder is removed and out_dir is untouched,
+    so a folder is either complete or absent.
+    """
     out_dir = pathlib.Path(out_dir)
     out_dir.parent.mkdir(parents=True, exist_ok=True)
     staging = out_dir.with_name(f".{out_dir.name}.partial-{os.getpid()}")
     shutil.rmtree(staging, ignore_errors=True)
     staging.mkdir()
     try:
+        yield staging
+        _replace_folder(staging, out_dir)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+
+
+def run_to_folder(
+    name: str, scenario: Scenario, out_dir: pathlib.Path, record: bool = True
+) -> dict:
+    """Simulates `scenario` and writes its outputs into out_dir; returns the summary."""
+    with staged_folder(out_dir) as staging:
         meshcat = None
         if record:
             from rpod.diagrams.recording import make_headless_meshcat
@@ -57,8 +73,4 @@ def run_to_folder(
             save_recording_html(meshcat, staging / "recording.html")
         # summary.json last: its presence marks a complete run inside the folder too.
         (staging / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-        _replace_folder(staging, out_dir)
-    except BaseException:
-        shutil.rmtree(staging, ignore_errors=True)
-        raise
     return summary
