@@ -59,7 +59,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from pydrake.common import MemoryFile
-from pydrake.common.eigen_geometry import Quaternion
 from pydrake.common.value import AbstractValue
 from pydrake.geometry import (
     Box,
@@ -81,6 +80,8 @@ from pydrake.geometry import (
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.perception import BaseField, Fields, PointCloud
 from pydrake.systems.framework import DiagramBuilder, LeafSystem, OutputPort
+
+from rpod.models.frames import rotation_from_wxyz
 from scipy.spatial import ConvexHull
 
 # Colours (r, g, b, a). Axis colours follow the usual x red, y green, z blue.
@@ -203,12 +204,6 @@ def _body_shape(name: str, box_size_m, vertices):
         obj = convex_hull_obj(np.asarray(vertices, dtype=float))
         return Convex(InMemoryMesh(mesh_file=MemoryFile(obj, ".obj", f"{name}_hull.obj")))
     return Box(*box_size_m)
-
-
-def rotation_from_wxyz(q_wxyz: np.ndarray) -> RotationMatrix:
-    """Rotation matrix of a (w, x, y, z) quaternion, normalised first (integrators drift)."""
-    q = np.asarray(q_wxyz, dtype=float)
-    return RotationMatrix(Quaternion(q / np.linalg.norm(q)))
 
 
 def _axis_cylinder_pose(axis: int, length: float) -> RigidTransform:
@@ -349,8 +344,10 @@ class RendezvousScene(LeafSystem):
         R_IT = rotation_from_wxyz(self._target_attitude_port.Eval(context)[:4])
         R_IC = rotation_from_wxyz(self._chaser_attitude_port.Eval(context)[:4])
         p_LC_L = self._relative_state_port.Eval(context)[:3]
-        R_LI = R_IL.inverse()
-        return RigidTransform(R_LI @ R_IT, np.zeros(3)), RigidTransform(R_LI @ R_IC, p_LC_L)
+        return (
+            RigidTransform(RotationMatrix(R_IL.T @ R_IT), np.zeros(3)),
+            RigidTransform(RotationMatrix(R_IL.T @ R_IC), p_LC_L),
+        )
 
     def _CalcFramePoses(self, context, output: AbstractValue) -> None:
         X_LT, X_LC = self.CalcPoses(context)
