@@ -22,7 +22,8 @@ A campaign file (every block but `base` is optional; at least one of grid, cases
       count: 16
       seed: 1
       fields: {target.q_LT: {dist: attitude}}
-      passively_safe: {radial_m: {dist: uniform, low: 15.0, high: 50.0}}
+      passively_safe:            # + start_range_m: {low, high}, point_at_target: true
+        radial_m: {dist: uniform, low: 15.0, high: 50.0}
 
 Runs are every combination case x grid point x sample (an absent block counts as one empty
 entry). The same `count` draws are used in every case and grid point (common random numbers:
@@ -341,7 +342,7 @@ def _parse_sample(data) -> SampleBlock:
             data["passively_safe"], "sample.passively_safe"
         )
         for path in fields:
-            for target in sampling.PASSIVELY_SAFE_FIELDS:
+            for target in passively_safe.fields:
                 if _overlap(path, target):
                     raise ScenarioError(
                         f"sample.fields.{path}", f"passively_safe already sets {target}"
@@ -357,7 +358,7 @@ def _check_no_conflicts(grid: dict, cases: list, sample: SampleBlock | None) -> 
     if sample is not None:
         setters += [(f"sample.fields.{p}", p) for p in sample.fields]
         if sample.passively_safe is not None:
-            setters += [("sample.passively_safe", p) for p in sampling.PASSIVELY_SAFE_FIELDS]
+            setters += [("sample.passively_safe", p) for p in sample.passively_safe.fields]
     for (where_a, a), (where_b, b) in itertools.combinations(setters, 2):
         if where_a != where_b and _overlap(a, b):
             raise ScenarioError(where_b, f"sets {b}, which {where_a} also sets")
@@ -503,7 +504,16 @@ def plan_runs(campaign: Campaign) -> list[PlannedRun]:
     ] or [{}]
     cases = campaign.cases or [("", {})]
     sample = campaign.sample
-    samples = [draw_sample(sample, k) for k in range(sample.count)] if sample else [({}, None)]
+    samples = [({}, None)]
+    if sample:
+        samples = []
+        for k in range(sample.count):
+            try:
+                samples.append(draw_sample(sample, k))
+            except ScenarioError as error:  # e.g. start_range_m never met
+                raise ScenarioFileError(
+                    f"{campaign.source}: {error.field}: sample {k}: {error.message}"
+                ) from None
 
     runs, seen = [], {}
     for case_index, (case_name, case_overrides) in enumerate(cases):
@@ -529,7 +539,13 @@ def plan_runs(campaign: Campaign) -> list[PlannedRun]:
                                 "needs an orbit, and orbit.gravity is free_space",
                             )
                         n = sampling.mean_motion(scenario.orbit.altitude_m)
-                        safe_overrides = sampling.passively_safe_overrides(safe, n)
+                        safe_overrides = sampling.passively_safe_overrides(
+                            safe,
+                            n,
+                            scenario.chaser.capture_point_C
+                            if sample.passively_safe.point_at_target
+                            else None,
+                        )
                         locations.update({p: "sample.passively_safe" for p in safe_overrides})
                         overrides.update(safe_overrides)
                         scenario = apply_overrides(scenario, safe_overrides)

@@ -2,7 +2,9 @@
 
 Owns: parsing and checking a distribution given as plain YAML data (`{dist: uniform, low: 1,
 high: 2}`), drawing from it with a numpy `Generator`, and the named sampler of passively safe
-relative orbits (paper 000 eqs. 6-7) that sets `chaser.p_LC_L` and `chaser.v_LC_L` together.
+relative orbits (paper 000 eqs. 6-7) that sets `chaser.p_LC_L` and `chaser.v_LC_L` together
+(optionally redrawn until the start range is within bounds, and with the chaser's initial
+attitude `chaser.rpy_LC_deg` on the line of sight).
 Does not own: which scenario field a draw goes to, seeds, or run ids (campaign.py).
 
 Distributions (every parameter may be a number, or a list for a vector draw of that length):
@@ -25,10 +27,12 @@ import dataclasses
 import math
 
 import numpy as np
+from pydrake.math import RollPitchYaw, RotationMatrix
 
 from rpod.diagrams.scenario import ScenarioError
 from rpod.models.cw import passively_safe_state
 from rpod.models.gravity import MU_EARTH_M3_S2, R_EARTH_M
+from rpod.planners.pointing import min_rotation
 
 DISTRIBUTIONS = ("uniform", "normal", "log_uniform", "choice", "direction", "attitude")
 
@@ -224,7 +228,12 @@ def draw_scalar(value, rng: np.random.Generator) -> float:
 # Passively safe relative orbits (paper 000 Sec. III, eqs. 6-7).
 
 PASSIVELY_SAFE_FIELDS = ("chaser.p_LC_L", "chaser.v_LC_L")
+POINTING_FIELD = "chaser.rpy_LC_deg"
 _PASSIVELY_SAFE_KEYS = ("radial_m", "cross_track_m", "phase_deg", "cross_track_phase_deg")
+_PASSIVELY_SAFE_OPTIONS = ("start_range_m", "point_at_target")
+# Redraws of one sample before `start_range_m` is declared unreachable (the acceptance rate of a
+# sensible campaign is far above 1e-3, so a correct one never gets here).
+MAX_START_RANGE_ATTEMPTS = 1000
 
 
 @dataclasses.dataclass(frozen=True)
@@ -240,28 +249,98 @@ class PassivelySafeSampler:
 
     Each of the four is a number or a scalar distribution (YAML keys radial_m, cross_track_m,
     phase_deg, cross_track_phase_deg); the phases default to uniform on [0, 360) deg.
+
+    Options: `start_range_m: {low, high}` redraws (rejection sampling) until the start distance
+    |p_LC_L| = sqrt(A0^2 cos^2 phase + 4 A0^2 sin^2 phase + B0^2 cos^2 phase_z), which does not
+    depend on n, is in [low, high]; `point_at_target: true` also sets chaser.rpy_LC_deg so that
+    the capture axis (the direction of chaser.capture_point_C) points at the target.
     """
 
     radial_m: object
     cross_track_m: object
     phase_deg: object
     cross_track_phase_deg: object
+    start_range_m: tuple | None = None  # (low, high) [m], or None for no rejection
+    point_at_target: bool = False
+    location: str = "passively_safe"  # of the YAML block, for errors raised while drawing
+
+    @property
+    def fields(self) -> tuple:
+        """The scenario fields this sampler sets."""
+        return PASSIVELY_SAFE_FIELDS + ((POINTING_FIELD,) if self.point_at_target else ())
 
     def draw(self, rng_for) -> dict:
-        """The draw as plain data; `rng_for(name)` gives the Generator of each parameter."""
-        return {
-            name: draw_scalar(getattr(self, name), rng_for(name)) for name in _PASSIVELY_SAFE_KEYS
-        }
+        """The draw as plain data; `rng_for(name)` gives the Generator of each parameter.
+
+        Each parameter's Generator is made once and drawn from in sequence, so attempt k of a
+        rejected draw is deterministic, and without start_range_m (or when the first attempt is
+        accepted) the draw is the same as a single draw. The returned dict is the accepted draw,
+        plus `attempts` (1 when the first was accepted).
+        """
+        rngs = {name: rng_for(name) for name in _PASSIVELY_SAFE_KEYS}
+        attempts = 1 if self.start_range_m is None else MAX_START_RANGE_ATTEMPTS
+        for attempt in range(1, attempts + 1):
+            draw = {name: draw_scalar(getattr(self, name), rngs[name]) for name in rngs}
+            if self.start_range_m is None:
+                return {**draw, "attempts": attempt}
+            low, high = self.start_range_m
+            if low <= start_range(draw) <= high:
+                return {**draw, "attempts": attempt}
+        raise ScenarioError(
+            f"{self.location}.start_range_m",
+            f"no draw with a start range in [{low:g}, {high:g}] m in {attempts} attempts: "
+            "the amplitudes and phases rarely or never give such a distance",
+        )
+
+
+def start_range(draw: dict) -> float:
+    """|p_LC_L| of a passively safe draw [m] (the same for every mean motion)."""
+    phase = math.radians(draw["phase_deg"])
+    phase_z = math.radians(draw["cross_track_phase_deg"])
+    A0, B0 = draw["radial_m"], draw["cross_track_m"]
+    x, y, z = A0 * math.cos(phase), 2.0 * A0 * math.sin(phase), B0 * math.cos(phase_z)
+    return math.sqrt(x * x + y * y + z * z)
+
+
+def _bounds(value) -> tuple[float, float]:
+    """The smallest and largest value a number or a (non-normal) scalar distribution gives."""
+    if not isinstance(value, Distribution):
+        return value, value
+    if value.kind == "choice":
+        return min(value.parameters["values"]), max(value.parameters["values"])
+    return float(value.parameters["low"]), float(value.parameters["high"])
+
+
+def _parse_start_range(data, location: str) -> tuple[float, float]:
+    if not isinstance(data, dict):
+        raise ScenarioError(location, f"expected a mapping {{low: m, high: m}}, got {data!r}")
+    for key in data:
+        if key not in ("low", "high"):
+            raise ScenarioError(f"{location}.{key}", "unknown key (known: low, high)")
+    values = {}
+    for key in ("low", "high"):
+        if key not in data:
+            raise ScenarioError(f"{location}.{key}", "missing (start_range_m needs low and high)")
+        value = _numbers(data[key], f"{location}.{key}")
+        if value.ndim != 0:
+            raise ScenarioError(f"{location}.{key}", f"expected a number, got {data[key]!r}")
+        values[key] = float(value)
+    if values["low"] < 0.0:
+        raise ScenarioError(f"{location}.low", f"must not be negative, got {data['low']!r}")
+    if not values["high"] > values["low"]:
+        raise ScenarioError(f"{location}.high", f"must be greater than low ({data['low']!r})")
+    return values["low"], values["high"]
 
 
 def parse_passively_safe(data, location: str) -> PassivelySafeSampler:
     """Checks the `passively_safe:` mapping of a campaign's sample block."""
+    known = _PASSIVELY_SAFE_KEYS + _PASSIVELY_SAFE_OPTIONS
     if not isinstance(data, dict):
-        raise ScenarioError(location, f"expected a mapping of {', '.join(_PASSIVELY_SAFE_KEYS)}")
+        raise ScenarioError(location, f"expected a mapping of {', '.join(known)}")
     for key in data:
-        if key not in _PASSIVELY_SAFE_KEYS:
+        if key not in known:
             raise ScenarioError(
-                f"{location}.{key}", f"unknown parameter (known: {', '.join(_PASSIVELY_SAFE_KEYS)})"
+                f"{location}.{key}", f"unknown parameter (known: {', '.join(known)})"
             )
     if "radial_m" not in data:
         raise ScenarioError(f"{location}.radial_m", "missing (the radial semi-axis A0)")
@@ -273,6 +352,7 @@ def parse_passively_safe(data, location: str) -> PassivelySafeSampler:
         cross_track_phase_deg=parse_scalar(
             data.get("cross_track_phase_deg"), f"{location}.cross_track_phase_deg", full_turn
         ),
+        location=location,
     )
     for name in ("radial_m", "cross_track_m"):
         value = getattr(sampler, name)
@@ -292,6 +372,25 @@ def parse_passively_safe(data, location: str) -> PassivelySafeSampler:
             smallest = value
         if smallest < 0.0:
             raise ScenarioError(f"{location}.{name}", "an amplitude must not be negative")
+    if "point_at_target" in data:
+        if not isinstance(data["point_at_target"], bool):
+            raise ScenarioError(
+                f"{location}.point_at_target",
+                f"expected true or false, got {data['point_at_target']!r}",
+            )
+        sampler = dataclasses.replace(sampler, point_at_target=data["point_at_target"])
+    if "start_range_m" in data:
+        low, high = _parse_start_range(data["start_range_m"], f"{location}.start_range_m")
+        # Whatever the phases, A0 <= |p_LC_L| <= sqrt(4 A0^2 + B0^2).
+        (a_min, a_max), (_, b_max) = _bounds(sampler.radial_m), _bounds(sampler.cross_track_m)
+        reach = math.sqrt(4.0 * a_max**2 + b_max**2)
+        if high < a_min or low > reach:
+            raise ScenarioError(
+                f"{location}.start_range_m",
+                f"[{low:g}, {high:g}] m can never be met: radial_m and cross_track_m put the "
+                f"start between {a_min:g} and {reach:g} m from the target",
+            )
+        sampler = dataclasses.replace(sampler, start_range_m=(low, high))
     return sampler
 
 
@@ -301,8 +400,15 @@ def mean_motion(altitude_m: float) -> float:
     return math.sqrt(MU_EARTH_M3_S2 / a**3)
 
 
-def passively_safe_overrides(draw: dict, n: float) -> dict:
-    """chaser.p_LC_L and chaser.v_LC_L of a passively safe draw for mean motion n."""
+def passively_safe_overrides(draw: dict, n: float, capture_point_C=None) -> dict:
+    """chaser.p_LC_L and chaser.v_LC_L of a passively safe draw for mean motion n.
+
+    With `capture_point_C` (the chaser's, in C), also chaser.rpy_LC_deg: the least rotation
+    R_LC that carries the capture axis c = capture_point_C / |capture_point_C| (as at the
+    identity attitude) onto the line of sight -p_LC_L / |p_LC_L| (a half turn about an axis
+    normal to c when they are antiparallel; rpod.planners.pointing.min_rotation), i.e. the
+    attitude the pointing law of paper 000 Sec. IV starts from.
+    """
     phase = math.radians(draw["phase_deg"])
     phase_z = math.radians(draw["cross_track_phase_deg"])
     A0, B0 = draw["radial_m"], draw["cross_track_m"]
@@ -313,4 +419,25 @@ def passively_safe_overrides(draw: dict, n: float) -> dict:
         z=B0 * math.cos(phase_z),
         vz=n * B0 * math.sin(phase_z),
     )
-    return {"chaser.p_LC_L": state[:3].tolist(), "chaser.v_LC_L": state[3:].tolist()}
+    overrides = {"chaser.p_LC_L": state[:3].tolist(), "chaser.v_LC_L": state[3:].tolist()}
+    if capture_point_C is not None:
+        overrides[POINTING_FIELD] = pointing_rpy_deg(state[:3], capture_point_C)
+    return overrides
+
+
+def pointing_rpy_deg(p_LC_L, capture_point_C) -> list[float]:
+    """Roll-pitch-yaw [deg] of the least rotation putting the capture axis on the line of sight."""
+    p = np.asarray(p_LC_L, dtype=float)
+    c = np.asarray(capture_point_C, dtype=float)
+    range_m, length = float(np.linalg.norm(p)), float(np.linalg.norm(c))
+    if range_m < 1e-9:
+        raise ScenarioError(
+            "chaser.p_LC_L", "the start is at the target: no line of sight for point_at_target"
+        )
+    if length < 1e-9:
+        raise ScenarioError(
+            "chaser.capture_point_C",
+            "is at the centre of mass: no capture axis for point_at_target to point",
+        )
+    R_LC = min_rotation(c / length, -p / range_m)
+    return np.degrees(RollPitchYaw(RotationMatrix(R_LC)).vector()).tolist()
