@@ -59,7 +59,9 @@ class SoftCaptureConfig:
     Attributes:
         semi_major_axis_m: a, semi-major axis of the target's circular orbit [m]; n = sqrt(mu/a^3).
         chaser_mass_kg: m_c, chaser mass [kg] (force / m = the CW input acceleration).
-        fuel_weight_gamma: gamma, weight of the L1 fuel term in Problem 3 (Problem 2 uses 1).
+        fuel_weight_gamma: gamma, weight of the L1 fuel term in Problem 3.
+        problem2_fuel_weight: Weight of the L1 fuel term in Problem 2: 1 as the paper's
+            Problem 2 is printed; the authors' public code uses gamma in both problems.
         slack_penalty_psi: psi, exact-penalty weight of the collision slacks s_k in Problem 3.
         max_thrust_N: U_max, bound on |u_k| (9) [N].
         max_range_m: r_max, bound on the range lift rho_k (16) [m].
@@ -88,6 +90,7 @@ class SoftCaptureConfig:
     semi_major_axis_m: float = 7738e3
     chaser_mass_kg: float = 1500.0
     fuel_weight_gamma: float = 5.0
+    problem2_fuel_weight: float = 1.0
     slack_penalty_psi: float = 750.0
     max_thrust_N: float = 100.0
     max_range_m: float = 100.0
@@ -154,6 +157,7 @@ class SoftCaptureConfig:
             "semi_major_axis_m", "chaser_mass_kg", "max_thrust_N", "max_range_m",
             "max_speed_m_s", "max_los_rate_rad_s", "capture_position_tol_m",
             "capture_speed_tol_m_s", "dt_s", "slack_penalty_psi", "fuel_weight_gamma",
+            "problem2_fuel_weight",
         )  # fmt: skip
         for name in positive:
             value = getattr(self, name)
@@ -193,6 +197,7 @@ class HorizonAttempt:
         reason: Its one-line reason.
         scp_iterations: Problem 3 solves at this N.
         solve_time_s: Wall time of each SOCP solve at this N [s].
+        step_time_s: Wall time of each step at this N (``HorizonOutcome.step_time_s``) [s].
     """
 
     N: int
@@ -200,6 +205,7 @@ class HorizonAttempt:
     reason: str
     scp_iterations: int
     solve_time_s: list[float]
+    step_time_s: list[float] = field(default_factory=list)
 
 
 @dataclass
@@ -230,6 +236,8 @@ class SoftCapturePlan:
         slack: Collision slacks of the last Problem 3 solve (N,) (zeros after Problem 2).
         scp_iterations: Problem 3 solves at the returned N.
         solve_time_s: Wall time of each SOCP solve at the returned N, Problem 2 first [s].
+        step_time_s: Wall time of each step at the returned N: Problem 2 with its alpha
+            check, then each SCP iteration with its own (``HorizonOutcome.step_time_s``) [s].
         cost: Objective value of the last solve at the returned N.
         fuel_l1_N: sum_k |u_k|_1 [N] (times dt: the L1 impulse).
         min_alpha: min(alpha) (NaN for an empty plan).
@@ -256,6 +264,7 @@ class SoftCapturePlan:
     min_alpha: float
     attempts: list[HorizonAttempt]
     total_solve_time_s: float
+    step_time_s: list[float] = field(default_factory=list)
 
     @property
     def success(self) -> bool:
@@ -373,7 +382,7 @@ class SoftCapturePlanner:
             attempts.append(
                 HorizonAttempt(
                     N, outcome.status, outcome.reason, outcome.scp_iterations,
-                    list(outcome.solve_time_s),
+                    list(outcome.solve_time_s), list(outcome.step_time_s),
                 )
             )  # fmt: skip
             if outcome.x is not None:
@@ -399,6 +408,7 @@ class SoftCapturePlanner:
             slack=chosen.slack,
             scp_iterations=chosen.scp_iterations,
             solve_time_s=list(chosen.solve_time_s),
+            step_time_s=list(chosen.step_time_s),
             cost=chosen.cost,
             fuel_l1_N=float(np.abs(chosen.u).sum()),
             min_alpha=float(chosen.alpha.min()),

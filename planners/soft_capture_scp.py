@@ -22,6 +22,7 @@ fails it goes on to Problem 3, whose (FOV-i) cones enforce (12) (``soft_capture_
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -50,6 +51,11 @@ class HorizonOutcome:
             ``"collision_metric_failed"``; ``"scp_max_iterations"``.
         reason: One line with the solver's own word (Clarabel status, Drake SolutionResult).
         solve_time_s: Wall time of every SOCP solve at this N, Problem 2 first [s].
+        step_time_s: Wall time of every step at this N [s]: step 0 is Problem 2 (data, solve)
+            and its alpha check; step i >= 1 is SCP iteration i (pointing Jacobian,
+            linearisation, Problem 3 solve) and the alpha check of its iterate. The sum of the
+            first i + 1 is the cumulative time after i SCP iterations, as Sec. VI-B reports it.
+            The alpha LPs' gradients, needed only to linearise, are timed in the step before.
         scp_iterations: Problem 3 solves performed.
         x: Last iterate's states (N, 6), or None if Problem 2 failed.
         u: Last iterate's forces (N-1, 3) [N], or None.
@@ -64,6 +70,7 @@ class HorizonOutcome:
     status: str
     reason: str
     solve_time_s: list[float] = field(default_factory=list)
+    step_time_s: list[float] = field(default_factory=list)
     scp_iterations: int = 0
     x: np.ndarray | None = None
     u: np.ndarray | None = None
@@ -142,6 +149,7 @@ def solve_horizon(
     phi = config.max_los_rate_rad_s * config.dt_s
     capture_axis_C = np.asarray(config.p_CDc_C, dtype=float)
     outcome = HorizonOutcome(N=N, status="", reason="")
+    clock = time.perf_counter()
 
     problem2.set_data(data)
     solution = problem2.solve()
@@ -159,6 +167,9 @@ def solve_horizon(
         alpha, grad_p, grad_theta, statuses = evaluate_alpha(
             metric, x[:, :3], R_LC, R_LT, need_gradient
         )
+        now = time.perf_counter()
+        outcome.step_time_s.append(now - clock)
+        clock = now
         outcome.x, outcome.u, outcome.rho, outcome.slack = (
             x,
             solution.u,

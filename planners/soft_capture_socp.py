@@ -250,7 +250,7 @@ class SoftCaptureSocp:
         self._terminal_v = _lorentz(prog, bound_A, np.zeros(4), X[N - 1, 3:])
 
         # Cost: fuel weight * sum(w) + sum(rho) (+ psi sum(s)); Problem 2 / Problem 3.
-        fuel_weight = c.fuel_weight_gamma if with_collision else 1.0
+        fuel_weight = c.fuel_weight_gamma if with_collision else c.problem2_fuel_weight
         cost_vars = [self._w, self._rho]
         cost_coefficients = [np.full(3 * K, fuel_weight), np.ones(N)]
         if with_collision:

@@ -134,6 +134,7 @@ def plan_summary(name: str, result: ScenarioPlan, report) -> dict:
         "time_to_capture_s": (plan.N - 1) * config.dt_s if plan.N else None,
         "scp_iterations": int(plan.scp_iterations),
         "solve_time_s": [float(s) for s in plan.solve_time_s],
+        "step_time_s": [float(s) for s in plan.step_time_s],
         "total_solve_time_s": float(plan.total_solve_time_s),
         "wall_time_s": float(result.wall_time_s),
         "cost": _finite(plan.cost),

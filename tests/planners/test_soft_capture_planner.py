@@ -66,6 +66,10 @@ def test_plan_succeeds_and_passes_the_independent_checker(planner, name):
     assert plan.N == N
     assert (plan.scp_iterations >= 1) == needs_scp
     assert len(plan.solve_time_s) == plan.scp_iterations + 1
+    # One step per solve, each holding its solve (plus the data, linearisation and alpha LPs).
+    assert len(plan.step_time_s) == len(plan.solve_time_s)
+    assert all(step > solve for step, solve in zip(plan.step_time_s, plan.solve_time_s))
+    assert plan.attempts[-1].step_time_s == plan.step_time_s
     assert plan.x.shape == (N, 6) and plan.u.shape == (N - 1, 3)
     assert plan.q_LT.shape == plan.q_LC.shape == (N, 4) and plan.alpha.shape == (N,)
     np.testing.assert_allclose(plan.t, np.arange(N) * CONFIG.dt_s)

@@ -69,6 +69,7 @@ def test_summary_has_the_planner_report_and_the_checker_report(planned):
         assert key in on_disk, key
     assert on_disk["status"] == "success"
     assert len(on_disk["solve_time_s"]) == on_disk["scp_iterations"] + 1  # Problem 2 first
+    assert len(on_disk["step_time_s"]) == len(on_disk["solve_time_s"])
     assert on_disk["check"]["passed"] and not on_disk["check"]["violations"]
     assert on_disk["min_alpha"] > 1.0
     assert sorted(on_disk["plots"]) == ["alpha.png", "state.png", "thrust.png", "trajectory.png"]
