@@ -119,9 +119,12 @@ def test_contact_before_capture_fails_with_its_time():
     assert outcome["time_s"] == 1.0
 
 
-def test_contact_after_capture_does_not_undo_it():
+def test_contact_after_capture_does_not_undo_it_but_is_reported():
     log = _log([9.0, 5.5, 5.4], [0.5, 0.02, 0.0], [3, 0.5, 0.0])
-    assert capture_outcome(log, _scenario())["success"]
+    outcome = capture_outcome(log, _scenario())
+    assert outcome["success"] and outcome["contact_after_s"] == 2.0
+    clean = capture_outcome(_log([9.0, 5.5, 5.4], [0.5, 0.02, 0.0], [3, 0.5, 0.5]), _scenario())
+    assert clean["success"] and np.isnan(clean["contact_after_s"])
 
 
 def test_the_failed_criterion_is_named():
