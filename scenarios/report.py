@@ -1,7 +1,8 @@
 """`rpod report RESULTS`: a campaign's results as tables and plots.
 
 Owns: per-group statistics (count, success rate, metric medians and 5th/95th percentiles), the
-failure reasons, and the plots (one histogram per metric, with one series per group; and, for a
+failure reasons, for soft-capture campaigns the paper 000 comparison (soft_capture_stats.py),
+and the plots (one histogram per metric, with one series per group; and, for a
 campaign with a two-parameter grid, 2-D maps of the success rate and of each metric's median).
 Does not own: the store (store.py) or the runs.
 
@@ -16,6 +17,7 @@ import re
 
 import numpy as np
 
+from rpod.scenarios.soft_capture_stats import soft_capture_rows
 from rpod.scenarios.store import ResultStore, store_path
 
 MAX_GROUPS_PER_HISTOGRAM = 8
@@ -112,6 +114,12 @@ def summary_text(meta: dict, rows: list[dict], metrics: list[str]) -> str:
     if metric_rows:
         lines += ["", "Metrics over the ok runs of each group:", ""]
         lines += _table(["group", "metric", "n", "median", "p5", "p95"], metric_rows, {2, 3, 4, 5})
+
+    paper = soft_capture_rows(rows)
+    if paper:
+        title = "Soft capture beside paper 000 Sec. VI-B (initial plans; soft_capture_stats.py):"
+        lines += ["", title, ""]
+        lines += _table(["quantity", "this campaign", "paper 000"], paper, set())
 
     reasons = {}
     for row in rows:
