@@ -56,6 +56,7 @@ import time
 
 import numpy as np
 from pydrake.solvers import ClarabelSolver, CommonSolverOption, SolverOptions
+
 from rpod.models.cw import passively_safe_state
 from rpod.planners.pointing import pointing_attitudes, pointing_rotation_jacobian
 from rpod.planners.soft_capture import (

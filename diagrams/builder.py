@@ -31,6 +31,7 @@ from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorC
 from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, Demultiplexer, LogVectorOutput
 
+from rpod.diagrams.scenario import Scenario, validate_scenario
 from rpod.models import thrusters as presets
 from rpod.models.frames import quaternion_wxyz, rotation_from_rpy_deg, rotation_from_wxyz
 from rpod.models.shapes import (
@@ -48,8 +49,6 @@ from rpod.systems.safety_monitor import SafetyMonitor
 from rpod.systems.soft_capture_controller import MODES as CONTROLLER_MODES
 from rpod.systems.soft_capture_controller import PLANNER_STATUSES, SoftCaptureController
 from rpod.systems.thruster_bank import ThrusterBank
-
-from rpod.diagrams.scenario import Scenario, validate_scenario
 
 HOLD_POSITION_TOLERANCE_M = 0.5  # "reached its hold point": within this of H ...
 HOLD_SPEED_TOLERANCE_M_S = 0.02  # ... and moving with it to within this.

@@ -28,9 +28,9 @@ import numpy as np
 from matplotlib.figure import Figure
 from mpl_toolkits.mplot3d import Axes3D  # noqa: F401  (registers the "3d" projection)
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+from scipy.spatial import ConvexHull
 
 from rpod.diagrams.plots import _equal_aspect_3d, _save_atomic
-from scipy.spatial import ConvexHull
 
 _logger = logging.getLogger(__name__)
 

@@ -45,8 +45,8 @@ from rpod.models.gravity import mean_motion
 from rpod.models.shapes import soft_capture_chaser_hull, soft_capture_target_hull
 from rpod.planners.pointing import pointing_attitudes
 from rpod.planners.soft_capture_scp import HorizonOutcome, solve_horizon
-from rpod.planners.target_prediction import TargetPrediction, predict_target
 from rpod.planners.soft_capture_socp import SocpData, SoftCaptureSocp
+from rpod.planners.target_prediction import TargetPrediction, predict_target
 
 TERMINAL_VELOCITY_POINTS = ("chaser_capture_point", "chaser_center_of_mass")
 _R_Y_PI = np.diag([-1.0, 1.0, -1.0])  # Q_y(180 deg): the capture pose relative to the target

@@ -80,9 +80,9 @@ from pydrake.geometry import (
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.perception import BaseField, Fields, PointCloud
 from pydrake.systems.framework import DiagramBuilder, LeafSystem, OutputPort
+from scipy.spatial import ConvexHull
 
 from rpod.models.frames import rotation_from_wxyz
-from scipy.spatial import ConvexHull
 
 # Colours (r, g, b, a). Axis colours follow the usual x red, y green, z blue.
 TARGET_RGBA = Rgba(0.85, 0.65, 0.20, 1.0)

@@ -6,7 +6,6 @@ Every wait has a bounded timeout.
 import subprocess
 
 import pytest
-
 from campaign_helpers import SMALL_CAMPAIGN, DaskCluster, kill_group, run_rpod
 
 

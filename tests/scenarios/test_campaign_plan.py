@@ -13,6 +13,7 @@ import sys
 
 import numpy as np
 import pytest
+from campaign_helpers import SMALL_CAMPAIGN, run_rpod
 
 from rpod.diagrams.builder import simulate
 from rpod.diagrams.scenario import ScenarioError
@@ -27,8 +28,6 @@ from rpod.scenarios.campaign import (
     plan_runs,
 )
 from rpod.scenarios.loader import ScenarioFileError, load_scenario
-
-from campaign_helpers import SMALL_CAMPAIGN, run_rpod
 
 
 def campaign_from(text: str, tmp_path, name: str = "c"):

@@ -209,6 +209,7 @@ def test_random_sec_vib_starts_capture_in_closed_loop(seed):
     """A sample of Sec. VI-B-like starts (random attitudes, tumble 0.5-10 deg/s, safe orbits
     11-30 m away): every successful plan must capture with no contact (~2 min per seed)."""
     from pydrake.math import RollPitchYaw, RotationMatrix
+
     from rpod.models.cw import passively_safe_state
     from rpod.planners.pointing import min_rotation
     from rpod.scenarios.plan import plan_scenario

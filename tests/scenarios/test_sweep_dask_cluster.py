@@ -8,7 +8,6 @@ import signal
 import socket
 
 import numpy as np
-
 from campaign_helpers import (
     DETERMINISTIC,
     SLOW_CAMPAIGN,
@@ -17,6 +16,7 @@ from campaign_helpers import (
     store_counts,
     wait_until,
 )
+
 from rpod.scenarios.campaign import load_campaign, plan_runs
 from rpod.scenarios.store import ResultStore
 

@@ -13,7 +13,6 @@ import sqlite3
 
 import numpy as np
 import pytest
-
 from campaign_helpers import (
     DETERMINISTIC,
     SLOW_CAMPAIGN,
@@ -22,10 +21,10 @@ from campaign_helpers import (
     store_counts,
     wait_until,
 )
+
 from rpod.diagrams.builder import simulate
 from rpod.scenarios.campaign import apply_overrides, load_campaign, plan_runs
 from rpod.scenarios.store import ResultStore
-
 
 
 def stored_rows(out):

@@ -19,6 +19,8 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
+from scipy.spatial.transform import Rotation
+
 from rpod.diagrams.recording import (
     make_headless_meshcat,
     save_recording_html,
@@ -26,7 +28,6 @@ from rpod.diagrams.recording import (
     start_recording,
 )
 from rpod.systems.scene import RendezvousScene, SceneConfig
-from scipy.spatial.transform import Rotation
 
 CHROMIUM = Path("/usr/bin/chromium")
 DURATION_S = 20.0
