@@ -217,12 +217,12 @@ class SoftCapturePlan:
     empty arrays (N = 0) when no horizon got that far. Times are from the plan's start.
 
     Attributes:
-        status: ``"success"``, ``"invalid_input"`` (non-finite start), ``"tumble_rate_above_limit"``,
-            ``"initial_state_in_collision"`` (alpha <= 1 at the start), ``"no_feasible_horizon"``
-            (Problem 2 infeasible at every N tried), or the status of
-            the last horizon tried (``"scp_max_iterations"``, ``"problem2_solver_failure"``,
-            ``"problem3_infeasible"``, ``"problem3_solver_failure"``,
-            ``"collision_metric_failed"``).
+        status: ``"success"``, ``"invalid_input"`` (non-finite start),
+            ``"tumble_rate_above_limit"``, ``"initial_state_in_collision"`` (alpha <= 1 at the
+            start), ``"no_feasible_horizon"`` (Problem 2 infeasible at every N tried), or the
+            status of the last horizon tried (``"scp_max_iterations"``,
+            ``"problem2_solver_failure"``, ``"problem3_infeasible"``,
+            ``"problem3_solver_failure"``, ``"collision_metric_failed"``).
         reason: One line; for solver failures it carries Clarabel's own status word.
         N: Number of knots of the returned arrays.
         t: Knot times (N,) [s] from the plan start.

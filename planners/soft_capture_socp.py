@@ -41,8 +41,8 @@ conservative off it. (FOV) is the simpler and less restrictive of the two.
 Problem 3 does not keep the lift in the field of view. The lift is only as tight as the cost
 makes it, and Problem 3's cost (fuel weighted by gamma = 5, sum(rho) by 1) makes it cheap to
 inflate rho_k to buy a larger turn: with the lift in Problem 3, 5 of 100 Sec. VI-B-like samples
-returned plans with true line-of-sight steps of up to 0.25 rad against phi = 0.2. Problem 3 has an iterate
-r^i, and ``|r| >= g^T r`` for the unit ``g = r^i / |r^i|``, so it imposes
+returned plans with true line-of-sight steps of up to 0.25 rad against phi = 0.2. Problem 3 has
+an iterate r^i, and ``|r| >= g^T r`` for the unit ``g = r^i / |r^i|``, so it imposes
 
     || r_k+1 - r_k || <= sin(phi / 2) (g_k^T r_k + g_k+1^T r_k+1),             (FOV-i)
 
@@ -145,9 +145,10 @@ class SoftCaptureSocp:
 
     The program is built once; between solves only its data are rewritten (``set_data``: the
     initial state, the docking-cone and terminal cones; ``set_linearisation``, Problem 3: the
-    collision rows and the (FOV-i) cones) with ``set_bounds`` / ``UpdateCoefficients``. Problem 3 is written in the full variables (x, u) rather than the increments
-    (dx, du) of eq. (26): ``alpha_k^i + J_k (r_k - r_k^i) + s_k >= alpha_min`` (25) is the same
-    constraint, and ``u = u^i + du`` the same cost.
+    collision rows and the (FOV-i) cones) with ``set_bounds`` / ``UpdateCoefficients``. Problem 3
+    is written in the full variables (x, u) rather than the increments (dx, du) of eq. (26):
+    ``alpha_k^i + J_k (r_k - r_k^i) + s_k >= alpha_min`` (25) is the same constraint, and
+    ``u = u^i + du`` the same cost.
 
     Args:
         config: A ``SoftCaptureConfig`` (validated).

@@ -14,8 +14,9 @@ equations with the LVLH frame turning at the planner's n), and the scenario's tr
 The closed loop (`rpod run`) plans its first plan from the same state but with eps_p, eps_v
 scaled by `plan_tolerance_fraction` and the hulls scaled by 1 + `collision_margin` (margins for
 tracking error and for the motion between knots); `closed_loop=True` plans that one instead (the
-file's polytopes are then the scaled ones the plan was checked against). Every plan with N >= 2 knots is re-checked by the independent checker
-(rpod.planners.plan_check); its report is in summary.json.
+file's polytopes are then the scaled ones the plan was checked against). Every plan with N >= 2
+knots is re-checked by the independent checker (rpod.planners.plan_check); its report is in
+summary.json.
 
 plan.npz: t [N], x [N, 6] (p_LC_L, v_LC_L), u [N-1, 3] (force in L, N), q_LT [N, 4], w_IT_T
 [N, 3], q_LC [N, 4], alpha [N], alpha_check [N] (the checker's LP), rho [N], slack [N],
