@@ -447,8 +447,8 @@ class SoftCaptureController(LeafSystem):
         ``check_violations`` (name -> worst value of each check above its tolerance; empty when
         passed), ``check_min_alpha`` (the checker's LP against the planning hulls),
         ``check_min_alpha_true`` ((1 + collision_margin) check_min_alpha: the true hulls'),
-        ``check_dynamics_residual``
-        (m and m/s) and ``check_time_s`` (wall time of the check); NaN / 0 when not checked.
+        ``check_dynamics_residual`` (m and m/s) and ``check_time_s`` (wall time of the check);
+        NaN / 0 when not checked.
         """
         return [dict(r) for r in context.get_abstract_state(self._memory).get_value().records]
 
