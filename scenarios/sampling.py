@@ -294,12 +294,8 @@ class PassivelySafeSampler:
 
 
 def start_range(draw: dict) -> float:
-    """|p_LC_L| of a passively safe draw [m] (the same for every mean motion)."""
-    phase = math.radians(draw["phase_deg"])
-    phase_z = math.radians(draw["cross_track_phase_deg"])
-    A0, B0 = draw["radial_m"], draw["cross_track_m"]
-    x, y, z = A0 * math.cos(phase), 2.0 * A0 * math.sin(phase), B0 * math.cos(phase_z)
-    return math.sqrt(x * x + y * y + z * z)
+    """|p_LC_L| of a passively safe draw [m] (the same for every mean motion, so n = 1)."""
+    return float(np.linalg.norm(passively_safe_overrides(draw, 1.0)["chaser.p_LC_L"]))
 
 
 def _bounds(value) -> tuple[float, float]:
