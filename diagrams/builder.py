@@ -31,14 +31,14 @@ from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorC
 from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, Demultiplexer, LogVectorOutput
 
-from rpod.diagrams.scenario import Scenario, validate_scenario
+from rpod.diagrams.scenario import (
+    Scenario,
+    body_polytopes,
+    target_rotation_in_lvlh,
+    validate_scenario,
+)
 from rpod.models import thrusters as presets
 from rpod.models.frames import quaternion_wxyz, rotation_from_rpy_deg, rotation_from_wxyz
-from rpod.models.shapes import (
-    ConvexPolytope,
-    soft_capture_chaser_hull,
-    soft_capture_target_hull,
-)
 from rpod.models.thrusters import STANDARD_GRAVITY_M_S2, ThrusterLayout
 from rpod.systems.allocator import WrenchAllocator
 from rpod.systems.hold_point_controller import HoldPointController
@@ -64,30 +64,6 @@ def make_thruster_layout(scenario: Scenario) -> ThrusterLayout:
     if config.layout == "gimbaled_cuboid_8":
         return presets.gimbaled_cuboid_8(max_thrust_N=config.max_thrust_N, isp_s=config.isp_s)
     raise ValueError(f"unknown thruster layout '{config.layout}'")
-
-
-def body_polytopes(scenario: Scenario) -> tuple[ConvexPolytope, ConvexPolytope]:
-    """The true (chaser in C, target in T) polytopes the scenario's `shape` fields name."""
-    chaser, target = scenario.chaser, scenario.target
-    chaser_shape = (
-        soft_capture_chaser_hull()
-        if chaser.shape == "soft_capture_chaser"
-        else ConvexPolytope.box(chaser.size_m)
-    )
-    target_shape = (
-        soft_capture_target_hull()
-        if target.shape == "soft_capture_target"
-        else ConvexPolytope.box(target.size_m)
-    )
-    return chaser_shape, target_shape
-
-
-def target_rotation_in_lvlh(scenario: Scenario) -> np.ndarray:
-    """R_LT at t = 0: from q_LT when given, else from rpy_LT_deg."""
-    target = scenario.target
-    if target.q_LT:
-        return rotation_from_wxyz(np.asarray(target.q_LT, float))
-    return rotation_from_rpy_deg(target.rpy_LT_deg)
 
 
 @dataclasses.dataclass
@@ -281,12 +257,8 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
             trail=visualization.trail,
             trail_max_points=visualization.trail_max_points,
             camera_position_L_m=list(visualization.camera_position_L_m),
-            target_vertices_T=(
-                target_shape.vertices.tolist() if target.shape != "box" else []
-            ),
-            chaser_vertices_C=(
-                chaser_shape.vertices.tolist() if chaser.shape != "box" else []
-            ),
+            target_vertices_T=(target_shape.vertices.tolist() if target.shape != "box" else []),
+            chaser_vertices_C=(chaser_shape.vertices.tolist() if chaser.shape != "box" else []),
         )
         scene = RendezvousScene.AddToBuilder(
             builder,
@@ -325,6 +297,20 @@ class SimulationResult:
 
     log: dict
     summary: dict
+
+
+def _sample_final_state(context, handles: DiagramHandles) -> None:
+    """Adds the state where the simulation stopped to every log, unless it is already there.
+
+    The loggers sample every log_period_s; the run ends at duration_s (or where the integrator
+    failed), which need not be a sample time. The final metrics (sim_time_s, the final state,
+    delta-v) are read from the log's last row, so that row must be the simulation's end.
+    """
+    now = context.get_time()
+    for logger in handles.loggers.values():
+        times = logger.FindLog(context).sample_times()
+        if len(times) == 0 or times[-1] < now:
+            logger.ForcedPublish(logger.GetMyContextFromRoot(context))
 
 
 def _collect_log(diagram, context, handles: DiagramHandles, scenario: Scenario) -> dict:
@@ -529,12 +515,11 @@ def simulate(scenario: Scenario, meshcat=None) -> SimulationResult:
         meshcat.StopRecording()
         meshcat.PublishRecording()
     context = simulator.get_context()
+    _sample_final_state(context, handles)
     log = _collect_log(diagram, context, handles, scenario)
     summary = {"status": status, **_summary(log, scenario)}
     if isinstance(handles.controller, SoftCaptureController):
-        records = handles.controller.plan_records(
-            handles.controller.GetMyContextFromRoot(context)
-        )
+        records = handles.controller.plan_records(handles.controller.GetMyContextFromRoot(context))
         dt = scenario.controller.soft_capture.planner.dt_s
         log.update(_plan_knots(records, dt))
         capture = capture_outcome(log, scenario)

@@ -13,8 +13,15 @@ import math
 
 import numpy as np
 
+from rpod.models.frames import rotation_from_rpy_deg, rotation_from_wxyz
 from rpod.models.gravity import GRAVITY_MODELS, MIN_ALTITUDE_M, R_EARTH_M
 from rpod.models.rigid_body import validate_inertia
+from rpod.models.shapes import (
+    ConvexPolytope,
+    separation_distance,
+    soft_capture_chaser_hull,
+    soft_capture_target_hull,
+)
 from rpod.systems.hold_point_controller import HoldPointControllerConfig
 from rpod.systems.orbital_dynamics import OrbitConfig
 from rpod.systems.soft_capture_controller import SoftCaptureControllerConfig
@@ -24,6 +31,18 @@ CONTROLLERS = ("hold_point", "soft_capture", "none")
 CHASER_SHAPES = ("box", "soft_capture_chaser")
 TARGET_SHAPES = ("box", "soft_capture_target")
 INTEGRATION_SCHEMES = ("runge_kutta2", "runge_kutta3", "runge_kutta5", "bogacki_shampine3")
+
+# Bounds on the work one scenario may ask for (README, "What rpod guarantees"). Each is far
+# beyond any rendezvous scenario and far below what would hang the run or exhaust memory.
+MAX_ALTITUDE_M = 1.0e8  # 100,000 km: past GEO and the apogees of highly elliptic orbits
+MAX_RANGE_M = 1.0e6  # |p_LC_L|: 1000 km, well past where relative navigation starts
+MAX_RELATIVE_SPEED_M_S = 1.0e4  # |v_LC_L|
+MAX_SPIN_DEG_S = 360.0  # one revolution a second; tumbling debris turns at a few deg/s
+MAX_DURATION_S = 1.0e6  # 11.6 days of simulated time
+MAX_SAMPLES = 1_000_000  # log samples, and scene frames, per run (~1 GB of log at most)
+MAX_SUBDIVISIONS = 1000  # PWM slots per control period
+MAX_EVENTS = 100_000_000  # controller samples x PWM slots, and max-size integrator steps
+QUATERNION_NORM_TOLERANCE = 1e-3  # |q| - 1 within this is normalised (4-digit entries pass)
 
 
 class ScenarioError(ValueError):
@@ -74,8 +93,9 @@ class TargetConfig:
     """The tumbling target (torque-free rigid body at the LVLH origin).
 
     Args:
-        q_LT: initial attitude relative to LVLH as a quaternion (w, x, y, z); when empty,
-            rpy_LT_deg is used.
+        q_LT: initial attitude relative to LVLH as a quaternion (w, x, y, z), of unit norm
+            (within 1e-3, then normalised). Give q_LT or rpy_LT_deg, not both; neither is
+            the identity.
         rpy_LT_deg: initial attitude relative to LVLH, roll-pitch-yaw [deg].
         w_IT_T_deg_s: initial angular velocity in the target body frame [deg/s].
         inertia_kg_m2: inertia about the centre of mass in T; any symmetric positive-definite
@@ -90,7 +110,7 @@ class TargetConfig:
     """
 
     q_LT: list[float] = dataclasses.field(default_factory=list)
-    rpy_LT_deg: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    rpy_LT_deg: list[float] = dataclasses.field(default_factory=list)
     w_IT_T_deg_s: list[float] = dataclasses.field(default_factory=lambda: [0.5, 0.0, 1.0])
     inertia_kg_m2: list[list[float]] = dataclasses.field(
         default_factory=lambda: [[1200.0, 50.0, -30.0], [50.0, 1000.0, 20.0], [-30.0, 20.0, 800.0]]
@@ -224,6 +244,54 @@ class Scenario:
     visualization: VisualizationConfig = dataclasses.field(default_factory=VisualizationConfig)
 
 
+def body_polytopes(scenario: Scenario) -> tuple[ConvexPolytope, ConvexPolytope]:
+    """The true (chaser in C, target in T) polytopes the scenario's `shape` fields name."""
+    chaser, target = scenario.chaser, scenario.target
+    chaser_shape = (
+        soft_capture_chaser_hull()
+        if chaser.shape == "soft_capture_chaser"
+        else ConvexPolytope.box(chaser.size_m)
+    )
+    target_shape = (
+        soft_capture_target_hull()
+        if target.shape == "soft_capture_target"
+        else ConvexPolytope.box(target.size_m)
+    )
+    return chaser_shape, target_shape
+
+
+def target_rotation_in_lvlh(scenario: Scenario) -> np.ndarray:
+    """R_LT at t = 0: from q_LT (normalised) or rpy_LT_deg, whichever is given; else identity."""
+    target = scenario.target
+    if target.q_LT:
+        q = np.asarray(target.q_LT, float)
+        return rotation_from_wxyz(q / np.linalg.norm(q))
+    return rotation_from_rpy_deg(target.rpy_LT_deg or [0.0, 0.0, 0.0])
+
+
+def starts_in_contact(scenario: Scenario) -> bool:
+    """True when the chaser's and the target's true shapes touch or overlap at t = 0.
+
+    A QP (separation_distance) only when the bodies' bounding spheres overlap: a campaign
+    validates every run, and most starts are metres away.
+    """
+    chaser_shape, target_shape = body_polytopes(scenario)
+    radii = sum(
+        float(np.max(np.linalg.norm(s.vertices, axis=1))) for s in (chaser_shape, target_shape)
+    )
+    if float(np.linalg.norm(scenario.chaser.p_LC_L)) > radii:
+        return False
+    distance = separation_distance(
+        target_shape,
+        target_rotation_in_lvlh(scenario),
+        np.zeros(3),
+        chaser_shape,
+        rotation_from_rpy_deg(scenario.chaser.rpy_LC_deg),
+        np.asarray(scenario.chaser.p_LC_L, float),
+    )
+    return distance <= 0.0
+
+
 def _require(condition: bool, field: str, message: str) -> None:
     if not condition:
         raise ScenarioError(field, message)
@@ -311,32 +379,104 @@ def _validate_soft_capture(scenario: Scenario) -> None:
     )
 
 
+def _at_most(value: float, limit: float, field: str, what: str = "") -> None:
+    _require(value <= limit, field, f"{what or 'must be'} at most {limit:g}, got {value:g}")
+
+
+def _norm_at_most(vector: np.ndarray, limit: float, field: str, unit: str) -> None:
+    norm = math.hypot(*vector)  # hypot does not overflow where the sum of squares would
+    _require(norm <= limit, field, f"norm must be at most {limit:g} {unit}, got {norm:g}")
+
+
+def _validate_work(scenario: Scenario) -> None:
+    """The bounds on samples, events and steps (MAX_* above): a run that ends in bounded time."""
+    duration = scenario.duration_s
+    _at_most(duration, MAX_DURATION_S, "duration_s")
+    _require(
+        scenario.log_period_s <= duration,
+        "log_period_s",
+        f"must not exceed duration_s = {duration:g} (the log would hold only t = 0), "
+        f"got {scenario.log_period_s:g}",
+    )
+    for field, period in (
+        ("log_period_s", scenario.log_period_s),
+        ("visualization.publish_period_s", scenario.visualization.publish_period_s),
+    ):
+        _at_most(duration / period, MAX_SAMPLES, field, f"duration_s / {field} must be")
+    _at_most(
+        duration / scenario.integrator.max_step_s,
+        MAX_EVENTS,
+        "integrator.max_step_s",
+        "duration_s / integrator.max_step_s must be",
+    )
+    _at_most(scenario.visualization.trail_max_points, MAX_SAMPLES, "visualization.trail_max_points")
+    thrusters, controller = scenario.thrusters, scenario.controller
+    if controller.type != "none":
+        slots = thrusters.subdivisions if thrusters.enabled and thrusters.pwm else 1
+        field = f"controller.{controller.type}.control_period_s"
+        _at_most(
+            duration / controller.control_period_s() * slots,
+            MAX_EVENTS,
+            field,
+            "duration_s / control_period_s x PWM subdivisions must be",
+        )
+
+
 def validate_scenario(scenario: Scenario) -> None:
     """Raises ScenarioError naming the first invalid field of the scenario."""
     orbit = scenario.orbit
     _require(orbit.gravity in GRAVITY_MODELS, "orbit.gravity", f"must be one of {GRAVITY_MODELS}")
     _require(
-        orbit.altitude_m >= MIN_ALTITUDE_M,
+        MIN_ALTITUDE_M <= orbit.altitude_m <= MAX_ALTITUDE_M,
         "orbit.altitude_m",
-        f"must be at least {MIN_ALTITUDE_M:.0f} m, got {orbit.altitude_m}",
+        f"must be in [{MIN_ALTITUDE_M:.0f}, {MAX_ALTITUDE_M:g}] m, got {orbit.altitude_m:g}",
     )
-    for name in ("inclination_deg", "raan_deg", "arg_latitude_deg"):
+    _require(
+        0.0 <= orbit.inclination_deg <= 180.0,
+        "orbit.inclination_deg",
+        f"must be in [0, 180] deg, got {orbit.inclination_deg:g}",
+    )
+    for name in ("raan_deg", "arg_latitude_deg"):
         _require(math.isfinite(getattr(orbit, name)), f"orbit.{name}", "must be finite")
 
     chaser = scenario.chaser
-    _vector(chaser.p_LC_L, "chaser.p_LC_L")
-    _vector(chaser.v_LC_L, "chaser.v_LC_L")
+    _norm_at_most(_vector(chaser.p_LC_L, "chaser.p_LC_L"), MAX_RANGE_M, "chaser.p_LC_L", "m")
+    _norm_at_most(
+        _vector(chaser.v_LC_L, "chaser.v_LC_L"), MAX_RELATIVE_SPEED_M_S, "chaser.v_LC_L", "m/s"
+    )
     _vector(chaser.rpy_LC_deg, "chaser.rpy_LC_deg")
-    _vector(chaser.w_IC_C_deg_s, "chaser.w_IC_C_deg_s")
+    _norm_at_most(
+        _vector(chaser.w_IC_C_deg_s, "chaser.w_IC_C_deg_s"),
+        MAX_SPIN_DEG_S,
+        "chaser.w_IC_C_deg_s",
+        "deg/s",
+    )
     _positive(chaser.mass_kg, "chaser.mass_kg")
     _rigid_body(chaser, "chaser", CHASER_SHAPES)
     _vector(chaser.capture_point_C, "chaser.capture_point_C")
 
     target = scenario.target
     if target.q_LT:
-        _vector(target.q_LT, "target.q_LT", size=4, nonzero=True)
-    _vector(target.rpy_LT_deg, "target.rpy_LT_deg")
-    _vector(target.w_IT_T_deg_s, "target.w_IT_T_deg_s")
+        _require(
+            not target.rpy_LT_deg,
+            "target.q_LT",
+            "both q_LT and rpy_LT_deg are given: give the attitude once (set the other to [])",
+        )
+        norm = float(np.linalg.norm(_vector(target.q_LT, "target.q_LT", size=4, nonzero=True)))
+        _require(
+            abs(norm - 1.0) <= QUATERNION_NORM_TOLERANCE,
+            "target.q_LT",
+            f"must be a unit quaternion (norm 1 within {QUATERNION_NORM_TOLERANCE:g}), "
+            f"got norm {norm:.6g}",
+        )
+    if target.rpy_LT_deg:
+        _vector(target.rpy_LT_deg, "target.rpy_LT_deg")
+    _norm_at_most(
+        _vector(target.w_IT_T_deg_s, "target.w_IT_T_deg_s"),
+        MAX_SPIN_DEG_S,
+        "target.w_IT_T_deg_s",
+        "deg/s",
+    )
     _rigid_body(target, "target", TARGET_SHAPES)
     _vector(target.docking_port_T, "target.docking_port_T")
     _vector(target.docking_axis_T, "target.docking_axis_T", nonzero=True)
@@ -362,7 +502,11 @@ def validate_scenario(scenario: Scenario) -> None:
         _positive(thrusters.max_thrust_N, "thrusters.max_thrust_N")
         _positive(thrusters.isp_s, "thrusters.isp_s")
         _positive(thrusters.size_m, "thrusters.size_m")
-        _require(thrusters.subdivisions >= 1, "thrusters.subdivisions", "must be at least 1")
+        _require(
+            1 <= thrusters.subdivisions <= MAX_SUBDIVISIONS,
+            "thrusters.subdivisions",
+            f"must be in [1, {MAX_SUBDIVISIONS}], got {thrusters.subdivisions}",
+        )
         _require(
             0 <= thrusters.min_on_slots <= thrusters.subdivisions,
             "thrusters.min_on_slots",
@@ -412,4 +556,12 @@ def validate_scenario(scenario: Scenario) -> None:
         scenario.visualization.trail_max_points >= 1,
         "visualization.trail_max_points",
         "must be at least 1",
+    )
+    _validate_work(scenario)
+    # Last: it needs valid shapes and attitudes.
+    _require(
+        not starts_in_contact(scenario),
+        "chaser.p_LC_L",
+        "the chaser starts in contact with or inside the target (their shapes overlap at "
+        f"t = 0; p_LC_L = {list(map(float, chaser.p_LC_L))} m)",
     )

@@ -20,12 +20,56 @@ import yaml
 from pydrake.common.yaml import yaml_load_typed
 
 from rpod.diagrams.scenario import Scenario, ScenarioError, validate_scenario
+from rpod.scenarios.yaml_reader import YamlError, parse_yaml
 
 BUNDLED_DIR = pathlib.Path(__file__).resolve().parent / "bundled"
 
 
+QUOTE_CHARS = 60  # longest quotation of a bad value in an error message
+
+
 class ScenarioFileError(Exception):
     """A scenario file cannot be used; the message is one line naming the file and field."""
+
+
+def quote(value, limit: int = QUOTE_CHARS) -> str:
+    """repr(value) on one line, cut to `limit` characters: error messages stay one short line.
+
+    A YAML alias bomb expands to a value whose repr has billions of characters; the repr of a
+    container is built item by item and abandoned once past the limit.
+    """
+    parts, length, cut = [], 0, False
+    for piece in _repr_pieces(value):
+        parts.append(piece)
+        length += len(piece)
+        if length > limit:
+            cut = True
+            break
+    text = " ".join("".join(parts).split())
+    return text if not cut and len(text) <= limit else text[: limit - 3] + "..."
+
+
+def quote_path(path: str, limit: int = 2 * QUOTE_CHARS) -> str:
+    """A dotted field path as written by the user, cut to `limit` characters."""
+    return path if len(path) <= limit else path[: limit - 3] + "..."
+
+
+def _repr_pieces(value):
+    """repr(value) as a stream of pieces (lists and dicts item by item)."""
+    if isinstance(value, list):
+        yield "["
+        for index, item in enumerate(value):
+            yield ", " if index else ""
+            yield from _repr_pieces(item)
+        yield "]"
+    elif isinstance(value, dict):
+        yield "{"
+        for index, (key, item) in enumerate(value.items()):
+            yield (", " if index else "") + repr(key) + ": "
+            yield from _repr_pieces(item)
+        yield "}"
+    else:
+        yield repr(value)
 
 
 def bundled_scenarios() -> dict[str, pathlib.Path]:
@@ -64,18 +108,18 @@ def _check(value, annotation, field: str) -> None:
     expected = _type_name(annotation)
     if dataclasses.is_dataclass(annotation):
         if not isinstance(value, dict):
-            raise ScenarioError(field or "(top level)", f"expected {expected}, got {value!r}")
+            raise ScenarioError(field or "(top level)", f"expected {expected}, got {quote(value)}")
         known = typing.get_type_hints(annotation)
         for key, item in value.items():
             path = f"{field}.{key}" if field else str(key)
             if key not in known:
-                raise ScenarioError(path, f"unknown field (known: {', '.join(known)})")
+                raise ScenarioError(quote_path(path), f"unknown field (known: {', '.join(known)})")
             _check(item, known[key], path)
         return
     origin = typing.get_origin(annotation)
     if origin is list:
         if not isinstance(value, list):
-            raise ScenarioError(field, f"expected {expected}, got {value!r}")
+            raise ScenarioError(field, f"expected {expected}, got {quote(value)}")
         (item_type,) = typing.get_args(annotation)
         for index, item in enumerate(value):
             _check(item, item_type, f"{field}[{index}]")
@@ -93,28 +137,27 @@ def _check(value, annotation, field: str) -> None:
     else:  # pragma: no cover - a schema type this checker does not know is a programming error
         raise TypeError(f"unsupported schema type {annotation} at {field}")
     if not ok:
-        raise ScenarioError(field, f"expected {expected}, got {value!r}")
+        raise ScenarioError(field, f"expected {expected}, got {quote(value)}")
 
 
 def read_yaml(text: str, source: str):
-    """Plain data from YAML text; a syntax error is ScenarioFileError with its line and column."""
+    """Plain data from YAML text (rpod.scenarios.yaml_reader: YAML 1.2 numbers, no duplicate
+    keys, bounded depth and size); ScenarioFileError naming the file, line and column."""
     try:
-        return yaml.safe_load(text)
-    except yaml.YAMLError as error:
-        mark = getattr(error, "problem_mark", None)
-        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        problem = getattr(error, "problem", None) or str(error).splitlines()[0]
-        raise ScenarioFileError(f"{source}: YAML syntax error{where}: {problem}") from None
+        return parse_yaml(text)
+    except YamlError as error:
+        raise ScenarioFileError(f"{source}: {error}") from None
 
 
 def parse_scenario(text: str, source: str = "<string>") -> Scenario:
     """Scenario from YAML text; errors are ScenarioFileError('source: field: message')."""
     data = read_yaml(text, source)
-    if data is None:
+    if data is None:  # empty or only comments: every field has its default
         data = {}
     try:
         _check(data, Scenario, "")
-        scenario = yaml_load_typed(schema=Scenario, data=text, defaults=Scenario())
+        # Drake reads the checked data, not the text: one YAML dialect (yaml_reader's) decides.
+        scenario = yaml_load_typed(schema=Scenario, data=yaml.safe_dump(data), defaults=Scenario())
         validate_scenario(scenario)
     except ScenarioError as error:
         raise ScenarioFileError(f"{source}: {error.field}: {error.message}") from None

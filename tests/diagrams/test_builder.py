@@ -48,11 +48,13 @@ def test_initial_attitudes_are_given_relative_to_lvlh():
                                rotation_from_rpy_deg([0.0, 45.0, 0.0]), atol=1e-12)
 
 
-def test_target_quaternion_overrides_roll_pitch_yaw():
+def test_target_quaternion_gives_the_attitude():
+    """q_LT alone sets R_LT. (It used to win silently over a given rpy_LT_deg; giving both is now
+    a field error, tests/diagrams/test_scenario_validation.py.)"""
     half = np.radians(30.0) / 2
     scenario = Scenario(
         duration_s=1.0,
-        target=TargetConfig(q_LT=[np.cos(half), 0.0, 0.0, np.sin(half)], rpy_LT_deg=[50, 0, 0]),
+        target=TargetConfig(q_LT=[np.cos(half), 0.0, 0.0, np.sin(half)]),
         thrusters=ThrustersConfig(enabled=False),
         controller=ControllerConfig(type="none"),
     )

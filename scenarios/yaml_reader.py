@@ -1,0 +1,140 @@
+"""Reading YAML as people write it: YAML 1.2 numbers, no duplicate keys, bounded size and depth.
+
+Owns: `parse_yaml`, the one place where scenario and campaign text becomes plain data (dicts,
+lists, strings, numbers, booleans), and the rules that make that safe and unsurprising:
+- Numbers are read as YAML 1.2 reads them. PyYAML implements YAML 1.1, whose resolver reads
+  `5e2`, `1e-3` and `1.0e308` as *strings* (1.1 wants a dot and a signed exponent), `010` as
+  octal 8 and `1:30` as 90. Here every 1.2 float form (`5e2`, `5E2`, `+1e+3`, `-2.5e-3`, `.5`,
+  `5.`, `.inf`, `.nan`) is a float, and an integer is decimal, `0o17` or `0x1F`.
+- A key given twice in one mapping is an error naming both lines (PyYAML lets the last win).
+- Nesting deeper than MAX_DEPTH and documents that expand (through aliases) to more than
+  MAX_VALUES values are errors: a 1 KB alias bomb expands to billions of values, and every
+  consumer (the schema check, an error message, a JSON dump) would walk them all.
+- Only the safe constructors: no Python tags (`!!python/object` is an error, never executed).
+Does not own: what the data means (loader.py, campaign.py).
+"""
+
+import re
+
+import yaml
+
+MAX_DEPTH = 32  # the scenario schema nests 5 deep; campaigns add 3
+MAX_VALUES = 2_000_000  # scalars + containers after alias expansion (a 1,000,000-value grid fits)
+
+_FLOAT_TAG = "tag:yaml.org,2002:float"
+_INT_TAG = "tag:yaml.org,2002:int"
+# YAML 1.2 core schema (https://yaml.org/spec/1.2.2/#1032-tag-resolution).
+_FLOAT_12 = re.compile(
+    r"^(?:[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?"
+    r"|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN))$"
+)
+_INT_12 = re.compile(r"^(?:[-+]?[0-9]+|0o[0-7]+|0x[0-9a-fA-F]+)$")
+
+
+class YamlError(ValueError):
+    """The text is not usable YAML; the message says where (line and column) and why."""
+
+
+class _Loader(yaml.SafeLoader):
+    """SafeLoader with YAML 1.2 number resolution (see the module docstring)."""
+
+
+# The 1.1 int and float resolvers out, the 1.2 ones in. Int first: an implicit scalar takes
+# the first resolver that matches, and every int would also match the float pattern.
+_Loader.yaml_implicit_resolvers = {
+    first: [(tag, rx) for tag, rx in resolvers if tag not in (_FLOAT_TAG, _INT_TAG)]
+    for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
+}
+_Loader.add_implicit_resolver(_INT_TAG, _INT_12, list("-+0123456789"))
+_Loader.add_implicit_resolver(_FLOAT_TAG, _FLOAT_12, list("-+0123456789."))
+
+
+def _construct_int(loader, node) -> int:
+    text = loader.construct_scalar(node)
+    sign, digits = (-1, text[1:]) if text[:1] == "-" else (1, text.lstrip("+"))
+    if digits.startswith(("0o", "0x")):
+        return sign * int(digits[2:], 8 if digits[1] == "o" else 16)
+    try:
+        return sign * int(digits, 10)  # base 10: "010" is ten, as in YAML 1.2
+    except ValueError:  # an explicit !!int tag on something that is not one
+        raise yaml.constructor.ConstructorError(
+            None, None, f"not an integer: {text!r}", node.start_mark
+        ) from None
+
+
+_Loader.add_constructor(_INT_TAG, _construct_int)
+
+
+def _where(mark) -> str:
+    return f"line {mark.line + 1}, column {mark.column + 1}"
+
+
+def quote_key(key: str, limit: int = 60) -> str:
+    """A mapping key for an error message, cut to `limit` characters."""
+    text = repr(key)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _check_node_graph(root) -> None:
+    """YamlError on duplicate keys, nesting deeper than MAX_DEPTH, or more than MAX_VALUES.
+
+    Iterative, and each node is visited once (aliases share nodes), so an alias bomb costs
+    its size in the file, not its expanded size.
+    """
+    expanded = {}  # id(node) -> values below and including it, once computed
+    stack = [(root, 1, False)]
+    while stack:
+        node, depth, children_done = stack.pop()
+        if id(node) in expanded:
+            continue
+        if depth > MAX_DEPTH:
+            raise YamlError(
+                f"YAML nested deeper than {MAX_DEPTH} levels at {_where(node.start_mark)}"
+            )
+        if isinstance(node, yaml.MappingNode):
+            children = [item for pair in node.value for item in pair]
+            if not children_done:
+                seen = {}
+                for key, _ in node.value:
+                    if isinstance(key, yaml.ScalarNode):
+                        if key.value in seen:
+                            raise YamlError(
+                                f"duplicate key {quote_key(key.value)} at {_where(key.start_mark)} "
+                                f"(first at {_where(seen[key.value])}): give each key once"
+                            )
+                        seen[key.value] = key.start_mark
+        elif isinstance(node, yaml.SequenceNode):
+            children = list(node.value)
+        else:
+            expanded[id(node)] = 1
+            continue
+        if children_done:
+            expanded[id(node)] = 1 + sum(expanded[id(child)] for child in children)
+            if expanded[id(node)] > MAX_VALUES:
+                raise YamlError(
+                    f"YAML expands to more than {MAX_VALUES:,} values at {_where(node.start_mark)}"
+                    " (aliases repeated inside aliases?)"
+                )
+            continue
+        stack.append((node, depth, True))
+        stack.extend((child, depth + 1, False) for child in children if id(child) not in expanded)
+
+
+def parse_yaml(text: str):
+    """Plain data from YAML text (None for an empty document); YamlError saying where and why."""
+    loader = _Loader(text)
+    try:
+        node = loader.get_single_node()
+        if node is None:
+            return None
+        _check_node_graph(node)
+        return loader.construct_document(node)
+    except yaml.YAMLError as error:
+        mark = getattr(error, "problem_mark", None)
+        where = f" at {_where(mark)}" if mark else ""
+        problem = getattr(error, "problem", None) or str(error).splitlines()[0]
+        raise YamlError(f"YAML syntax error{where}: {problem}") from None
+    except RecursionError:  # PyYAML's composer recurses: nesting far beyond MAX_DEPTH
+        raise YamlError(f"YAML nested deeper than {MAX_DEPTH} levels") from None
+    finally:
+        loader.dispose()
