@@ -31,6 +31,7 @@ from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 from scipy.spatial import ConvexHull
 
 from rpod.diagrams.plots import _equal_aspect_3d, _save_atomic
+from rpod.models.frames import rotations_from_wxyz
 
 _logger = logging.getLogger(__name__)
 
@@ -38,21 +39,6 @@ PLAN_FIGURE_NAMES = ("trajectory.png", "thrust.png", "alpha.png", "state.png")
 _TARGET_COLOUR = (0.85, 0.65, 0.20)
 _CHASER_COLOUR = (0.20, 0.45, 0.85)
 _COMPONENT_COLOURS = ("tab:red", "tab:green", "tab:blue")
-
-
-def _rotations(q_wxyz: np.ndarray) -> np.ndarray:
-    """Rotation matrices (N, 3, 3) of (w, x, y, z) quaternions (normalised here)."""
-    q = np.asarray(q_wxyz, dtype=float)
-    q = q / np.linalg.norm(q, axis=1, keepdims=True)
-    w, x, y, z = q.T
-    return np.stack(
-        [
-            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-            np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
-            np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
-        ],
-        axis=-2,
-    )
 
 
 def _hull_faces(vertices: np.ndarray) -> list[np.ndarray]:
@@ -92,8 +78,8 @@ def _cone_lines(ax, R, apex_T, axis_T, half_angle, length, colour) -> None:
 def _figure_trajectory(plan: Mapping, title: str) -> Figure:
     x = np.asarray(plan["x"], float)
     r = x[:, :3]
-    R_LT = _rotations(plan["q_LT"])
-    R_LC = _rotations(plan["q_LC"])
+    R_LT = rotations_from_wxyz(plan["q_LT"])
+    R_LC = rotations_from_wxyz(plan["q_LC"])
     V_t = np.asarray(plan["V_target"], float)
     V_c = np.asarray(plan["V_chaser"], float)
     D_t = np.asarray(plan["D_t"], float)

@@ -47,6 +47,18 @@ def cw_continuous(n) -> tuple[np.ndarray, np.ndarray]:
     return A, B
 
 
+def cw_acceleration(n, p_L, v_L) -> np.ndarray:
+    """The unforced CW acceleration in L (paper 004 eq. 4): the A x of `cw_continuous`, written
+    out for one state (a controller's feed-forward cancels it, paper 004 eq. 12).
+
+    Args:
+        n: Target mean motion [rad/s].
+        p_L: Relative position (3,) in L [m].
+        v_L: Relative velocity (3,) in L [m/s].
+    """
+    return np.array([3.0 * n * n * p_L[0] + 2.0 * n * v_L[1], -2.0 * n * v_L[0], -n * n * p_L[2]])
+
+
 def cw_state_transition(n, tau) -> np.ndarray:
     """Exact CW state-transition matrix ``Phi(tau) = expm(A tau)``.
 

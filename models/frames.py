@@ -79,6 +79,26 @@ def rotation_from_wxyz(q_wxyz: np.ndarray) -> np.ndarray:
     return RotationMatrix(Quaternion(q / np.linalg.norm(q))).matrix()
 
 
+def rotations_from_wxyz(q_wxyz) -> np.ndarray:
+    """Rotation matrices (..., 3, 3) of quaternions (..., 4) (w, x, y, z), normalised first.
+
+    The vectorised form of `rotation_from_wxyz` for a whole trajectory of attitudes (Hamilton
+    convention, as Drake's Quaternion; tests/models/test_frames.py checks it against
+    RotationMatrix).
+    """
+    q = np.asarray(q_wxyz, dtype=float)
+    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    w, x, y, z = (q[..., i] for i in range(4))
+    return np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+            np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
+            np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
+        ],
+        axis=-2,
+    )
+
+
 def rotate_by_wxyz(q_wxyz, v) -> tuple[float, float, float]:
     """R(q) v for a unit quaternion (w, x, y, z), float-only for simulation hot paths.
 

@@ -108,6 +108,33 @@ def quaternion_rate(q_wxyz, w_B) -> np.ndarray:
     )
 
 
+def attitude_pd_torque(
+    J, e_B, w_error_B, w_IB_B, bandwidth_rad_s: float, damping: float, alpha_ff_B=None
+) -> np.ndarray:
+    """Attitude PD torque with gyroscopic compensation and an optional feed-forward.
+
+    tau_B = J (alpha_ff + w_a^2 e + 2 zeta w_a (w_des - w)) + w x (J w): with the gyroscopic
+    term cancelled, the attitude error of Euler's equations (paper 000 eq. 2) obeys a
+    second-order system of natural frequency w_a and damping zeta (small errors).
+
+    Args:
+        J: Inertia (3, 3) in B [kg m^2].
+        e_B: Attitude error as a rotation vector (axis times angle) in B [rad].
+        w_error_B: Desired minus actual angular velocity, in B [rad/s].
+        w_IB_B: Actual angular velocity of B in I, in B [rad/s].
+        bandwidth_rad_s: Natural frequency w_a.
+        damping: Damping ratio zeta.
+        alpha_ff_B: Desired angular acceleration in B [rad/s^2] (None: zero).
+    """
+    J = np.asarray(J, dtype=float)
+    w_a = bandwidth_rad_s
+    command = w_a * w_a * np.asarray(e_B)
+    if alpha_ff_B is not None:  # added first: the controllers' results stay bit-identical
+        command = alpha_ff_B + command
+    command = command + 2.0 * damping * w_a * np.asarray(w_error_B)
+    return J @ command + np.cross(w_IB_B, J @ w_IB_B)
+
+
 def rotational_kinetic_energy(J, w_B) -> float:
     """Rotational kinetic energy ``1/2 w^T J w`` [J].
 

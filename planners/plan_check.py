@@ -22,7 +22,9 @@ import numpy as np
 from scipy.linalg import expm
 from scipy.optimize import linprog
 
-from rpod.models.gravity import MU_EARTH_M3_S2
+from rpod.models.cw import cw_continuous
+from rpod.models.frames import rotations_from_wxyz
+from rpod.models.gravity import mean_motion
 from rpod.models.shapes import soft_capture_chaser_hull, soft_capture_target_hull
 
 # Default pass thresholds and why. The planner's numbers come from Clarabel (interior point,
@@ -121,27 +123,12 @@ class PlanCheckReport:
 
 def _cw_discretisation(n: float, dt: float, m: float) -> tuple[np.ndarray, np.ndarray]:
     """Phi and B_d / m by the matrix exponential of [[A, B / m], [0, 0]] dt (Van Loan)."""
-    A = np.zeros((6, 6))
-    A[:3, 3:] = np.eye(3)
-    A[3, 0], A[3, 4] = 3.0 * n * n, 2.0 * n  # x'' = 3 n^2 x + 2 n y' + u_x / m
-    A[4, 3] = -2.0 * n  # y'' = -2 n x' + u_y / m
-    A[5, 2] = -n * n  # z'' = -n^2 z + u_z / m
+    A, _ = cw_continuous(n)  # paper 004 eq. (4); the expm below is independent of the STM
     M = np.zeros((9, 9))
     M[:6, :6] = A
     M[3:6, 6:] = np.eye(3) / m
     E = expm(M * dt)
     return E[:6, :6], E[:6, 6:]
-
-
-def _rotation_matrices(q_wxyz: np.ndarray) -> np.ndarray:
-    """Rotation matrices from (w, x, y, z) quaternions, by the Euler-Rodrigues formula."""
-    q = np.asarray(q_wxyz, dtype=float)
-    q = q / np.linalg.norm(q, axis=1, keepdims=True)
-    w, v = q[:, 0], q[:, 1:]
-    vx = np.zeros((len(q), 3, 3))
-    vx[:, 0, 1], vx[:, 0, 2], vx[:, 1, 2] = -v[:, 2], v[:, 1], -v[:, 0]
-    vx = vx - vx.transpose(0, 2, 1)
-    return np.eye(3) + 2.0 * w[:, None, None] * vx + 2.0 * vx @ vx
 
 
 def _angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -191,7 +178,7 @@ def check_plan(
     chaser_hull = chaser_hull if chaser_hull is not None else soft_capture_chaser_hull()
     target_hull = target_hull if target_hull is not None else soft_capture_target_hull()
     N, dt, m = plan.N, config.dt_s, config.chaser_mass_kg
-    n = np.sqrt(MU_EARTH_M3_S2 / config.semi_major_axis_m**3)
+    n = mean_motion(config.semi_major_axis_m)
     x, u = np.asarray(plan.x, float), np.asarray(plan.u, float)
     r, v = x[:, :3], x[:, 3:]
 
@@ -207,8 +194,8 @@ def check_plan(
     prediction_mismatch = max(
         float(np.abs(sign * q_LT - plan.q_LT).max()), float(np.abs(w_IT_T - plan.w_IT_T).max())
     )
-    R_LT = _rotation_matrices(q_LT)
-    R_LC = _rotation_matrices(plan.q_LC)
+    R_LT = rotations_from_wxyz(q_LT)
+    R_LC = rotations_from_wxyz(plan.q_LC)
 
     # Bounds (9), (10), (16) and the true field-of-view angle (12).
     los_angles = _angle(r[:-1], r[1:])

@@ -31,6 +31,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from rpod.models.frames import rotations_from_wxyz
+
 # Below this norm of the unnormalised quaternion (1 + a.b, a x b) (it is sqrt(2 (1 + a.b)),
 # ~ the angle by which a misses -b), a and b are treated as antiparallel: the least rotation
 # is then a half turn about any axis normal to a, and one is chosen deterministically.
@@ -47,19 +49,6 @@ def _skew(v: np.ndarray) -> np.ndarray:
             np.stack([zero, -v[..., 2], v[..., 1]], axis=-1),
             np.stack([v[..., 2], zero, -v[..., 0]], axis=-1),
             np.stack([-v[..., 1], v[..., 0], zero], axis=-1),
-        ],
-        axis=-2,
-    )
-
-
-def _quaternion_to_matrix(q_wxyz: np.ndarray) -> np.ndarray:
-    """Rotation matrices (..., 3, 3) of unit quaternions (..., 4) (Hamilton, w first)."""
-    w, x, y, z = (q_wxyz[..., i] for i in range(4))
-    return np.stack(
-        [
-            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-            np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
-            np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
         ],
         axis=-2,
     )
@@ -96,7 +85,7 @@ def min_rotation(a_hat: np.ndarray, b_hat: np.ndarray) -> np.ndarray:
         q = np.where(antiparallel[..., None], half_turn, q / np.where(norm > 0.0, norm, 1.0))
     else:
         q = q / norm
-    return _quaternion_to_matrix(q)
+    return rotations_from_wxyz(q)
 
 
 def pointing_attitudes(p_LC_L: np.ndarray, capture_axis_C, R_LC0=None) -> np.ndarray:

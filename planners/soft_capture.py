@@ -37,10 +37,10 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RotationMatrix
 
 from rpod.models.collision import ScalingMetricProgram
+from rpod.models.frames import rotations_from_wxyz
 from rpod.models.gravity import mean_motion
 from rpod.models.shapes import soft_capture_chaser_hull, soft_capture_target_hull
 from rpod.planners.pointing import pointing_attitudes
@@ -293,10 +293,6 @@ def terminal_targets(
     return R_LT @ reach_T, R_LT @ np.cross(w_LT_T, lever_T)  # (13), (14)
 
 
-def _rotations(q_wxyz: np.ndarray) -> np.ndarray:
-    return np.array([RotationMatrix(Quaternion(q / np.linalg.norm(q))).matrix() for q in q_wxyz])
-
-
 def _quaternions(R: np.ndarray) -> np.ndarray:
     return np.array([RotationMatrix(Rk).ToQuaternion().wxyz() for Rk in R])
 
@@ -360,7 +356,7 @@ class SoftCapturePlanner:
                 f"{c.tumble_rate_limit_rad_s:.4f} rad/s",
                 [],
             )
-        R_LT_all = _rotations(q_LT_all)
+        R_LT_all = rotations_from_wxyz(q_LT_all)
         # A start in collision cannot pass the hard test at any N: one LP instead of a search.
         R_LC_start = pointing_attitudes(x0[None, :3], c.p_CDc_C, R_LC0)[0]
         alpha0 = self._metric.evaluate(R_LC_start, x0[:3], R_LT_all[0], np.zeros(3)).alpha

@@ -34,7 +34,9 @@ from pydrake.common.value import Value
 from pydrake.math import RotationMatrix
 from pydrake.systems.framework import LeafSystem
 
+from rpod.models.cw import cw_acceleration
 from rpod.models.frames import rotation_from_wxyz
+from rpod.models.rigid_body import attitude_pd_torque
 
 
 @dataclasses.dataclass
@@ -91,11 +93,6 @@ def _pointing_rotation(z_axis: np.ndarray, x_hint: np.ndarray, fallback: np.ndar
         x = fallback - (fallback @ z_axis) * z_axis
     x = _unit(x)
     return np.column_stack((x, np.cross(z_axis, x), z_axis))
-
-
-def cw_acceleration(n: float, p_L: np.ndarray, v_L: np.ndarray) -> np.ndarray:
-    """The unforced CW acceleration in L (paper 004 eq. 4); the hold law cancels it (eq. 12)."""
-    return np.array([3 * n * n * p_L[0] + 2 * n * v_L[1], -2 * n * v_L[0], -n * n * p_L[2]])
 
 
 class HoldPointController(LeafSystem):
@@ -202,10 +199,7 @@ class HoldPointController(LeafSystem):
         error = RotationMatrix(R_IC.T @ R_ICdes).ToAngleAxis()
         e_C = error.axis() * error.angle()
         w_a, zeta_a = cfg.attitude_bandwidth_rad_s, cfg.attitude_damping
-        J = self._J
-        tau_C = J @ (w_a * w_a * e_C + 2 * zeta_a * w_a * (w_des_C - w_IC_C)) + np.cross(
-            w_IC_C, J @ w_IC_C
-        )
+        tau_C = attitude_pd_torque(self._J, e_C, w_des_C - w_IC_C, w_IC_C, w_a, zeta_a)
 
         state.get_mutable_discrete_state(self._output_state).set_value(
             np.concatenate([tau_C, f_C, p_H, p_R])

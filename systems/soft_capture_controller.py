@@ -108,9 +108,9 @@ from pydrake.common.value import AbstractValue, Value
 from pydrake.math import RotationMatrix
 from pydrake.systems.framework import LeafSystem
 
-from rpod.models.cw import cw_state_transition, cw_zoh_input
+from rpod.models.cw import cw_acceleration, cw_state_transition, cw_zoh_input
 from rpod.models.frames import rotation_from_wxyz
-from rpod.models.rigid_body import angular_acceleration
+from rpod.models.rigid_body import angular_acceleration, attitude_pd_torque
 from rpod.models.shapes import (
     ConvexPolytope,
     soft_capture_chaser_hull,
@@ -618,16 +618,14 @@ class SoftCaptureController(LeafSystem):
         e_C = error.axis() * error.angle()
         w_des_C = R_IC.T @ (R_IL @ (w_IL_L + w_LC_des_L))
         w_a, zeta_a = cfg.attitude_bandwidth_rad_s, cfg.attitude_damping
-        J = self._J_C
-        alpha_des_C = np.zeros(3)
+        alpha_des_C = None
         if cfg.attitude_feedforward:  # the desired rate's inertial derivative (module docstring)
-            n = self._n
-            a_rel = a_ff + np.array([3 * n * n * p[0] + 2 * n * v[1], -2 * n * v[0], -n * n * p[2]])
+            a_rel = a_ff + cw_acceleration(self._n, p, v)
             w_dot_L = np.cross(p, a_rel) / p_squared - 2.0 * (p @ v) / p_squared * w_LC_des_L
             alpha_des_C = R_IC.T @ (R_IL @ (w_dot_L + np.cross(w_IL_L, w_LC_des_L)))
-        tau_C = J @ (
-            alpha_des_C + w_a * w_a * e_C + 2.0 * zeta_a * w_a * (w_des_C - w_IC_C)
-        ) + np.cross(w_IC_C, J @ w_IC_C)
+        tau_C = attitude_pd_torque(
+            self._J_C, e_C, w_des_C - w_IC_C, w_IC_C, w_a, zeta_a, alpha_des_C
+        )
 
         held = np.concatenate([tau_C, f_C, p_ref, u_ff, [mode, status]])
         state.get_mutable_discrete_state(self._held).set_value(held)

@@ -120,3 +120,14 @@ def test_drifting_state_is_not_periodic():
     after = cw_state_transition(n, 2.0 * np.pi / n) @ x0
     # Along-track drift per orbit is -3 pi dvy / n * 2 = -6 pi dvy / n ~ -17 m.
     assert after[1] - x0[1] == pytest.approx(-6.0 * np.pi * 1e-3 / n, rel=1e-9)
+
+
+def test_cw_acceleration_is_the_velocity_rows_of_A_x():
+    from rpod.models.cw import cw_acceleration
+
+    rng = np.random.default_rng(3)
+    n = 0.0011
+    A, _ = cw_continuous(n)
+    for _ in range(10):
+        x = rng.normal(size=6) * [100, 100, 100, 0.1, 0.1, 0.1]
+        np.testing.assert_allclose(cw_acceleration(n, x[:3], x[3:]), (A @ x)[3:], rtol=1e-15)

@@ -246,3 +246,21 @@ def test_rotation_from_rpy_deg_is_z_y_x_composition():
         np.testing.assert_allclose(
             rotation_from_rpy_deg(rpy), Rz(y) @ Ry(p) @ Rx(r), rtol=0, atol=1e-15
         )
+
+
+def test_rotations_from_wxyz_matches_drake_rotation_matrix():
+    """The one vectorised quaternion -> rotation helper against pydrake's RotationMatrix, for a
+    batch of random (non-unit) quaternions and for a (2, 5, 4) stack; tolerance 1e-14."""
+    from pydrake.common.eigen_geometry import Quaternion
+    from pydrake.math import RotationMatrix
+
+    from rpod.models.frames import rotations_from_wxyz
+
+    rng = np.random.default_rng(7)
+    q = rng.normal(size=(50, 4)) * rng.uniform(0.5, 2.0, size=(50, 1))
+    expected = np.array(
+        [RotationMatrix(Quaternion(qk / np.linalg.norm(qk))).matrix() for qk in q]
+    )
+    np.testing.assert_allclose(rotations_from_wxyz(q), expected, atol=1e-14)
+    stacked = rotations_from_wxyz(q[:10].reshape(2, 5, 4))
+    np.testing.assert_allclose(stacked.reshape(10, 3, 3), expected[:10], atol=1e-14)

@@ -184,3 +184,18 @@ def test_validate_inertia_accepts_physical():
 def test_validate_inertia_rejects(J, message):
     with pytest.raises(ValueError, match=message):
         validate_inertia(J)
+
+
+def test_attitude_pd_torque_makes_euler_equations_the_commanded_second_order_law():
+    """Through Euler's equations (angular_acceleration, paper 000 eq. 2) the PD torque gives
+    exactly w_dot = alpha_ff + w_a^2 e + 2 zeta w_a (w_des - w): the gyroscopic term cancels."""
+    from rpod.models.rigid_body import angular_acceleration, attitude_pd_torque
+
+    rng = np.random.default_rng(11)
+    J = np.array([[1200.0, 50.0, -30.0], [50.0, 1000.0, 20.0], [-30.0, 20.0, 800.0]])
+    for with_feedforward in (False, True):
+        e, w_err, w = rng.normal(size=(3, 3)) * [[0.1], [0.05], [0.2]]
+        alpha = rng.normal(size=3) * 0.01 if with_feedforward else None
+        tau = attitude_pd_torque(J, e, w_err, w, 0.8, 0.9, alpha)
+        expected = 0.8**2 * e + 2 * 0.9 * 0.8 * w_err + (alpha if with_feedforward else 0.0)
+        np.testing.assert_allclose(angular_acceleration(J, w, tau), expected, atol=1e-14)
