@@ -29,7 +29,12 @@ import time
 import numpy as np
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorConfig
 from pydrake.systems.framework import Diagram, DiagramBuilder
-from pydrake.systems.primitives import ConstantVectorSource, Demultiplexer, LogVectorOutput
+from pydrake.systems.primitives import (
+    ConstantVectorSource,
+    Demultiplexer,
+    LogVectorOutput,
+    Multiplexer,
+)
 
 from rpod.diagrams.scenario import (
     Scenario,
@@ -46,6 +51,7 @@ from rpod.systems.orbital_dynamics import OrbitalDynamics
 from rpod.systems.pwm import PwmModulator
 from rpod.systems.rigid_body_attitude import RigidBodyAttitude
 from rpod.systems.safety_monitor import SafetyMonitor
+from rpod.systems.sensed import SENSED_FIELDS, SENSED_PORT
 from rpod.systems.soft_capture_controller import MODES as CONTROLLER_MODES
 from rpod.systems.soft_capture_controller import PLANNER_STATUSES, SoftCaptureController
 from rpod.systems.thruster_bank import ThrusterBank
@@ -160,6 +166,11 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
         "target_attitude": target_attitude.GetOutputPort("attitude"),
         "chaser_attitude": chaser_attitude.GetOutputPort("attitude"),
     }
+    # The sensed bundle (rpod.systems.sensed): today the truth; a navigation filter goes here.
+    bundle = builder.AddNamedSystem("sensed", Multiplexer([size for _, size in SENSED_FIELDS]))
+    for index, (name, _) in enumerate(SENSED_FIELDS):
+        connect(sensed[name], bundle.get_input_port(index))
+    sensed_port = bundle.get_output_port()
 
     if bank is not None:
         if scenario.controller.type == "hold_point":
@@ -184,8 +195,7 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
             logged = ("body_wrench_desired", "reference_L", "force_feedforward_L",
                       "controller_mode", "planner_status")  # fmt: skip
         if controller is not None:  # every controller: sensed signals in, body wrench out
-            for name, port in sensed.items():
-                connect(port, controller.GetInputPort(name))
+            connect(sensed_port, controller.GetInputPort(SENSED_PORT))
             allocator = builder.AddNamedSystem("wrench_allocator", WrenchAllocator(layout))
             connect(
                 controller.GetOutputPort("body_wrench_desired"),
@@ -227,8 +237,7 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
             chaser.capture_point_C,
         ),
     )
-    for name, port in sensed.items():
-        connect(port, monitor.GetInputPort(name))
+    connect(sensed_port, monitor.GetInputPort(SENSED_PORT))
 
     log("relative_state_L", relative)
     log("q_IL", q_IL)
@@ -264,10 +273,7 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
             builder,
             meshcat,
             scene_config,
-            relative,
-            q_IL,
-            sensed["target_attitude"],
-            sensed["chaser_attitude"],
+            sensed_port,
         )
         if isinstance(controller, SoftCaptureController):
             from rpod.systems.scene import PlannedPathOverlay

@@ -153,9 +153,7 @@ def validate_thruster(thruster: Thruster, name: str = "thruster") -> None:
         raise ValueError(f"{name}.isp_s must be > 0 s, got {thruster.isp_s!r}")
     alpha = thruster.gimbal_half_angle_rad
     if not (math.isfinite(alpha) and 0.0 <= alpha < math.pi / 2):
-        raise ValueError(
-            f"{name}.gimbal_half_angle_rad must be in [0, pi/2) rad, got {alpha!r}"
-        )
+        raise ValueError(f"{name}.gimbal_half_angle_rad must be in [0, pi/2) rad, got {alpha!r}")
 
 
 def validate_layout(layout: ThrusterLayout) -> None:

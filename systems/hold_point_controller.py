@@ -37,6 +37,7 @@ from pydrake.systems.framework import LeafSystem
 from rpod.models.cw import cw_acceleration
 from rpod.models.frames import rotation_from_wxyz
 from rpod.models.rigid_body import attitude_pd_torque
+from rpod.systems.sensed import Sensed, declare_sensed_input
 
 
 @dataclasses.dataclass
@@ -98,8 +99,7 @@ def _pointing_rotation(z_axis: np.ndarray, x_hint: np.ndarray, fallback: np.ndar
 class HoldPointController(LeafSystem):
     """Sampled hold-point law (module docstring), output held between samples.
 
-    Input ports: relative_state_L (6), q_IL (4), w_IL_L (3), target_attitude (7),
-        chaser_attitude (7).
+    Input port: sensed (27, the sensed bundle of rpod.systems.sensed).
     Output ports: body_wrench_desired (6, [tau_C; f_C]), hold_point_L (3), reference_L (3).
     """
 
@@ -122,11 +122,7 @@ class HoldPointController(LeafSystem):
         capture_C = _unit(np.asarray(config.capture_axis_C, float))
         self._R_CK = _pointing_rotation(capture_C, np.array([1.0, 0.0, 0.0]), np.eye(3)[1])
 
-        self._relative_port = self.DeclareVectorInputPort("relative_state_L", 6)
-        self._q_IL_port = self.DeclareVectorInputPort("q_IL", 4)
-        self._w_IL_L_port = self.DeclareVectorInputPort("w_IL_L", 3)
-        self._target_port = self.DeclareVectorInputPort("target_attitude", 7)
-        self._chaser_port = self.DeclareVectorInputPort("chaser_attitude", 7)
+        self._sensed_port = declare_sensed_input(self)
 
         # Discrete state: [wrench (6), hold point (3), reference (3)]; abstract: last R_IKdes.
         self._output_state = self.DeclareDiscreteState(12)
@@ -149,12 +145,13 @@ class HoldPointController(LeafSystem):
 
     def _update(self, context, state):
         cfg = self._config
-        relative = self._relative_port.Eval(context)
+        sensed = Sensed.from_vector(self._sensed_port.Eval(context))
+        relative = sensed.relative_state_L
         p, v = relative[0:3], relative[3:6]
-        R_IL = rotation_from_wxyz(self._q_IL_port.Eval(context))
-        w_IL_L = self._w_IL_L_port.Eval(context)
-        target = self._target_port.Eval(context)
-        chaser = self._chaser_port.Eval(context)
+        R_IL = rotation_from_wxyz(sensed.q_IL)
+        w_IL_L = sensed.w_IL_L
+        target = sensed.target_attitude
+        chaser = sensed.chaser_attitude
         R_IT = rotation_from_wxyz(target[0:4])
         R_LT = R_IL.T @ R_IT
         w_IT_L = R_LT @ target[4:7]

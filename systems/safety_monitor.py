@@ -21,13 +21,13 @@ from pydrake.systems.framework import LeafSystem
 
 from rpod.models.frames import lvlh_to_inertial, rotation_from_wxyz
 from rpod.models.shapes import ConvexPolytope, separation_distance
+from rpod.systems.sensed import Sensed, declare_sensed_input
 
 
 class SafetyMonitor(LeafSystem):
     """Monitors separation, corridor and capture-point speed (see the module docstring).
 
-    Input ports: relative_state_L (6), q_IL (4), w_IL_L (3), target_attitude (7),
-        chaser_attitude (7).
+    Input port: sensed (27, the sensed bundle of rpod.systems.sensed).
     Output ports: separation_m (1), corridor_violation_rad (1), capture_speed_m_s (1).
     """
 
@@ -47,24 +47,21 @@ class SafetyMonitor(LeafSystem):
         self._a_T = np.asarray(docking_axis_T, float) / np.linalg.norm(docking_axis_T)
         self._half_angle = corridor_half_angle_rad
         self._p_CE_C = np.asarray(capture_point_C, float)
-        self._relative_port = self.DeclareVectorInputPort("relative_state_L", 6)
-        self._q_IL_port = self.DeclareVectorInputPort("q_IL", 4)
-        self._w_IL_L_port = self.DeclareVectorInputPort("w_IL_L", 3)
-        self._target_port = self.DeclareVectorInputPort("target_attitude", 7)
-        self._chaser_port = self.DeclareVectorInputPort("chaser_attitude", 7)
+        self._sensed_port = declare_sensed_input(self)
         self.DeclareVectorOutputPort("separation_m", 1, self._calc_separation)
         self.DeclareVectorOutputPort("corridor_violation_rad", 1, self._calc_corridor)
         self.DeclareVectorOutputPort("capture_speed_m_s", 1, self._calc_capture_speed)
 
     def _poses(self, context):
         """(R_LT, R_LC, p_LC_L, v_LC_L, R_IL, w_IL_L, target, chaser) at this context."""
-        relative = self._relative_port.Eval(context)
-        R_IL = rotation_from_wxyz(self._q_IL_port.Eval(context))
-        target = self._target_port.Eval(context)
-        chaser = self._chaser_port.Eval(context)
+        sensed = Sensed.from_vector(self._sensed_port.Eval(context))
+        relative = sensed.relative_state_L
+        R_IL = rotation_from_wxyz(sensed.q_IL)
+        target = sensed.target_attitude
+        chaser = sensed.chaser_attitude
         R_LT = R_IL.T @ rotation_from_wxyz(target[0:4])
         R_LC = R_IL.T @ rotation_from_wxyz(chaser[0:4])
-        w_IL_L = self._w_IL_L_port.Eval(context)
+        w_IL_L = sensed.w_IL_L
         return R_LT, R_LC, relative[0:3], relative[3:6], R_IL, w_IL_L, target, chaser
 
     def _calc_separation(self, context, output):

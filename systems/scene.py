@@ -83,6 +83,7 @@ from pydrake.systems.framework import DiagramBuilder, LeafSystem, OutputPort
 from scipy.spatial import ConvexHull
 
 from rpod.models.frames import rotation_from_wxyz
+from rpod.systems.sensed import SENSED_PORT, Sensed, declare_sensed_input
 
 # Colours (r, g, b, a). Axis colours follow the usual x red, y green, z blue.
 TARGET_RGBA = Rgba(0.85, 0.65, 0.20, 1.0)
@@ -221,11 +222,9 @@ def _axis_cylinder_pose(axis: int, length: float) -> RigidTransform:
 class RendezvousScene(LeafSystem):
     """Poses of the target and chaser bodies in L, plus Meshcat overlays (corridor, trail, LVLH).
 
-    Input ports:
-        relative_state_L (6): p_LC_L, v_LC_L.
-        q_IL (4): LVLH attitude in ECI, (w, x, y, z).
-        target_attitude (7): q_IT (w, x, y, z), w_IT_T.
-        chaser_attitude (7): q_IC (w, x, y, z), w_IC_C.
+    Input port:
+        sensed (27): the sensed bundle (rpod.systems.sensed); the scene draws p_LC_L, q_IL,
+            q_IT and q_IC.
     Output port:
         geometry_pose: FramePoseVector with X_LT and X_LC, for SceneGraph.
     """
@@ -247,10 +246,7 @@ class RendezvousScene(LeafSystem):
         self._meshcat = meshcat
         self._overlay_path = f"{prefix}/overlay"
 
-        self._relative_state_port = self.DeclareVectorInputPort("relative_state_L", 6)
-        self._q_IL_port = self.DeclareVectorInputPort("q_IL", 4)
-        self._target_attitude_port = self.DeclareVectorInputPort("target_attitude", 7)
-        self._chaser_attitude_port = self.DeclareVectorInputPort("chaser_attitude", 7)
+        self._sensed_port = declare_sensed_input(self)
 
         self._source_id = scene_graph.RegisterSource("rpod_scene")
         self._target_frame_id = self._RegisterBody(
@@ -268,15 +264,7 @@ class RendezvousScene(LeafSystem):
             CHASER_RGBA,
         )
 
-        input_tickets = {
-            self.input_port_ticket(port.get_index())
-            for port in (
-                self._relative_state_port,
-                self._q_IL_port,
-                self._target_attitude_port,
-                self._chaser_attitude_port,
-            )
-        }
+        input_tickets = {self.input_port_ticket(self._sensed_port.get_index())}
         self._pose_port = self.DeclareAbstractOutputPort(
             "geometry_pose",
             lambda: AbstractValue.Make(FramePoseVector()),
@@ -340,10 +328,11 @@ class RendezvousScene(LeafSystem):
 
     def CalcPoses(self, context) -> tuple[RigidTransform, RigidTransform]:
         """Returns (X_LT, X_LC) from the inputs."""
-        R_IL = rotation_from_wxyz(self._q_IL_port.Eval(context))
-        R_IT = rotation_from_wxyz(self._target_attitude_port.Eval(context)[:4])
-        R_IC = rotation_from_wxyz(self._chaser_attitude_port.Eval(context)[:4])
-        p_LC_L = self._relative_state_port.Eval(context)[:3]
+        sensed = Sensed.from_vector(self._sensed_port.Eval(context))
+        R_IL = rotation_from_wxyz(sensed.q_IL)
+        R_IT = rotation_from_wxyz(sensed.q_IT)
+        R_IC = rotation_from_wxyz(sensed.q_IC)
+        p_LC_L = sensed.p_LC_L
         return (
             RigidTransform(RotationMatrix(R_IL.T @ R_IT), np.zeros(3)),
             RigidTransform(RotationMatrix(R_IL.T @ R_IC), p_LC_L),
@@ -457,10 +446,7 @@ class RendezvousScene(LeafSystem):
         builder: DiagramBuilder,
         meshcat: Meshcat,
         config: SceneConfig,
-        relative_state_L: OutputPort,
-        q_IL: OutputPort,
-        target_attitude: OutputPort,
-        chaser_attitude: OutputPort,
+        sensed: OutputPort,
         scene_graph: SceneGraph | None = None,
         name: str = "scene",
         prefix: str = "rpod",
@@ -473,13 +459,10 @@ class RendezvousScene(LeafSystem):
         camera (if `config.camera_position_L_m` is given) and background visibility.
 
         Args:
-            builder: the diagram builder holding the four source ports.
+            builder: the diagram builder holding the sensed port.
             meshcat: Meshcat to draw in.
             config: scene config.
-            relative_state_L: port with p_LC_L, v_LC_L (6).
-            q_IL: port with the LVLH quaternion in ECI, w x y z (4).
-            target_attitude: port with q_IT (w x y z), w_IT_T (7).
-            chaser_attitude: port with q_IC (w x y z), w_IC_C (7).
+            sensed: the sensed bundle's port (27, rpod.systems.sensed).
             scene_graph: an existing SceneGraph in `builder` to register with; a new one is
                 added when None.
             name: name of the scene system in the diagram.
@@ -491,10 +474,7 @@ class RendezvousScene(LeafSystem):
         if scene_graph is None:
             scene_graph = builder.AddNamedSystem(f"{name}.scene_graph", SceneGraph())
         scene = builder.AddNamedSystem(name, RendezvousScene(scene_graph, meshcat, config, prefix))
-        builder.Connect(relative_state_L, scene.GetInputPort("relative_state_L"))
-        builder.Connect(q_IL, scene.GetInputPort("q_IL"))
-        builder.Connect(target_attitude, scene.GetInputPort("target_attitude"))
-        builder.Connect(chaser_attitude, scene.GetInputPort("chaser_attitude"))
+        builder.Connect(sensed, scene.GetInputPort(SENSED_PORT))
         builder.Connect(
             scene.get_geometry_pose_output_port(),
             scene_graph.get_source_pose_port(scene.source_id()),

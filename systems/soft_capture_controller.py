@@ -120,6 +120,7 @@ from rpod.planners.plan_check import DEFAULT_TOLERANCES, check_plan
 from rpod.planners.pointing import min_rotation
 from rpod.planners.soft_capture import SoftCaptureConfig, SoftCapturePlanner
 from rpod.planners.target_prediction import predict_target
+from rpod.systems.sensed import Sensed, declare_sensed_input
 
 # Controller modes (the ``controller_mode`` output, logged; MODES[code] is the name).
 MODES = ("tracking", "capture_hold", "fallback")
@@ -341,8 +342,7 @@ class _Memory:
 class SoftCaptureController(LeafSystem):
     """Sampled soft-capture law (module docstring), output held between samples.
 
-    Input ports: relative_state_L (6), q_IL (4), w_IL_L (3), target_attitude (7),
-        chaser_attitude (7).
+    Input port: sensed (27, the sensed bundle of rpod.systems.sensed).
     Output ports: body_wrench_desired (6, [tau_C; f_C]), reference_L (3, the planned position
         at the sample; NaN in fallback), force_feedforward_L (3, the planned force in L [N]),
         controller_mode (1, a ``MODES`` code), planner_status (1, a ``PLANNER_STATUSES`` code of
@@ -383,11 +383,7 @@ class SoftCaptureController(LeafSystem):
         self._c_C = self._D_c / np.linalg.norm(self._D_c)
         self._reach_T = np.asarray(self._planning.p_TDt_T, float) - _R_Y_PI @ self._D_c
 
-        self._relative_port = self.DeclareVectorInputPort("relative_state_L", 6)
-        self._q_IL_port = self.DeclareVectorInputPort("q_IL", 4)
-        self._w_IL_L_port = self.DeclareVectorInputPort("w_IL_L", 3)
-        self._target_port = self.DeclareVectorInputPort("target_attitude", 7)
-        self._chaser_port = self.DeclareVectorInputPort("chaser_attitude", 7)
+        self._sensed_port = declare_sensed_input(self)
 
         # Held outputs: [wrench (6), reference (3), feed-forward (3), mode (1), status (1)].
         self._held = self.DeclareDiscreteState(14)
@@ -566,12 +562,13 @@ class SoftCaptureController(LeafSystem):
     def _update(self, context, state):
         cfg = self._config
         t = context.get_time()
-        relative = self._relative_port.Eval(context)
+        sensed = Sensed.from_vector(self._sensed_port.Eval(context))
+        relative = sensed.relative_state_L
         p, v = relative[0:3], relative[3:6]
-        R_IL = rotation_from_wxyz(self._q_IL_port.Eval(context))
-        w_IL_L = self._w_IL_L_port.Eval(context)
-        target = self._target_port.Eval(context)
-        chaser = self._chaser_port.Eval(context)
+        R_IL = rotation_from_wxyz(sensed.q_IL)
+        w_IL_L = sensed.w_IL_L
+        target = sensed.target_attitude
+        chaser = sensed.chaser_attitude
         R_LT = R_IL.T @ rotation_from_wxyz(target[0:4])
         w_IT_T = target[4:7]
         R_IC = rotation_from_wxyz(chaser[0:4])

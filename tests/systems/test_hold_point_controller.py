@@ -14,6 +14,7 @@ import pytest
 from pydrake.systems.analysis import Simulator
 
 from rpod.systems.hold_point_controller import HoldPointController, HoldPointControllerConfig
+from rpod.systems.sensed import sensed_vector
 
 MASS = 500.0
 J = np.diag([190.0, 190.0, 190.0])
@@ -21,29 +22,39 @@ Q_IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
 Q_FLIP_X = np.array([0.0, 1.0, 0.0, 0.0])  # 180 deg about x: z_C = -z, x_C = x
 
 
-def evaluate(p_LC_L, v_LC_L=(0, 0, 0), w_IT_T=(0, 0, 0), w_IL_L=(0, 0, 0), q_IC=Q_FLIP_X,
-             w_IC_C=(0, 0, 0), config=None):
+def evaluate(
+    p_LC_L,
+    v_LC_L=(0, 0, 0),
+    w_IT_T=(0, 0, 0),
+    w_IL_L=(0, 0, 0),
+    q_IC=Q_FLIP_X,
+    w_IC_C=(0, 0, 0),
+    config=None,
+):
     config = config or HoldPointControllerConfig()
     controller = HoldPointController(config, MASS, J, [0.0, 0.0, 1.0], [0.0, 0.0, 1.0])
     context = controller.CreateDefaultContext()
-    controller.GetInputPort("relative_state_L").FixValue(context, np.r_[p_LC_L, v_LC_L])
-    controller.GetInputPort("q_IL").FixValue(context, Q_IDENTITY)
-    controller.GetInputPort("w_IL_L").FixValue(context, np.asarray(w_IL_L, float))
-    controller.GetInputPort("target_attitude").FixValue(context, np.r_[Q_IDENTITY, w_IT_T])
-    controller.GetInputPort("chaser_attitude").FixValue(context, np.r_[q_IC, w_IC_C])
+    controller.GetInputPort("sensed").FixValue(
+        context,
+        sensed_vector(np.r_[p_LC_L, v_LC_L], Q_IDENTITY, np.asarray(w_IL_L, float),
+                      np.r_[Q_IDENTITY, w_IT_T], np.r_[q_IC, w_IC_C]),
+    )  # fmt: skip
     simulator = Simulator(controller, context)
     simulator.Initialize()
-    out = {name: controller.GetOutputPort(name).Eval(simulator.get_context()).copy()
-           for name in ("body_wrench_desired", "hold_point_L", "reference_L")}
+    out = {
+        name: controller.GetOutputPort(name).Eval(simulator.get_context()).copy()
+        for name in ("body_wrench_desired", "hold_point_L", "reference_L")
+    }
     return out
 
 
 def test_structure():
     controller = HoldPointController(HoldPointControllerConfig(), MASS, J, [0, 0, 1], [0, 0, 1])
-    sizes = {controller.get_input_port(i).get_name(): controller.get_input_port(i).size()
-             for i in range(controller.num_input_ports())}
-    assert sizes == {"relative_state_L": 6, "q_IL": 4, "w_IL_L": 3, "target_attitude": 7,
-                     "chaser_attitude": 7}
+    sizes = {
+        controller.get_input_port(i).get_name(): controller.get_input_port(i).size()
+        for i in range(controller.num_input_ports())
+    }
+    assert sizes == {"sensed": 27}  # the sensed bundle, rpod.systems.sensed
     assert controller.GetOutputPort("body_wrench_desired").size() == 6
     assert not controller.HasAnyDirectFeedthrough()  # held between samples
 
@@ -70,8 +81,9 @@ def test_cw_gravity_gradient_is_cancelled():
     out = evaluate([0.0, 0.0, 11.0], w_IL_L=[0.0, 0.0, n])
     # Hold point on the orbit normal: no relative rotation of it, a_CW = (0, 0, -n^2 z).
     f_L = np.array([0.0, 0.0, MASS * n * n * 11.0])
-    np.testing.assert_allclose(out["body_wrench_desired"][3:6], np.diag([1, -1, -1]) @ f_L,
-                               atol=1e-9)
+    np.testing.assert_allclose(
+        out["body_wrench_desired"][3:6], np.diag([1, -1, -1]) @ f_L, atol=1e-9
+    )
 
 
 def test_far_off_axis_the_reference_keeps_range_and_leads_by_the_step():

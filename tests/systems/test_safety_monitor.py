@@ -12,6 +12,7 @@ import pytest
 
 from rpod.models.shapes import ConvexPolytope
 from rpod.systems.safety_monitor import SafetyMonitor
+from rpod.systems.sensed import sensed_vector
 
 IDENTITY_Q = np.array([1.0, 0.0, 0.0, 0.0])
 
@@ -28,13 +29,22 @@ def make(corridor_deg=30.0):
     return monitor, monitor.CreateDefaultContext()
 
 
-def feed(monitor, context, p_LC_L, v_LC_L=(0, 0, 0), q_IT=IDENTITY_Q, w_IT_T=(0, 0, 0),
-         q_IC=IDENTITY_Q, w_IC_C=(0, 0, 0), w_IL_L=(0, 0, 0)):
-    monitor.GetInputPort("relative_state_L").FixValue(context, np.r_[p_LC_L, v_LC_L])
-    monitor.GetInputPort("q_IL").FixValue(context, IDENTITY_Q)
-    monitor.GetInputPort("w_IL_L").FixValue(context, np.asarray(w_IL_L, float))
-    monitor.GetInputPort("target_attitude").FixValue(context, np.r_[q_IT, w_IT_T])
-    monitor.GetInputPort("chaser_attitude").FixValue(context, np.r_[q_IC, w_IC_C])
+def feed(
+    monitor,
+    context,
+    p_LC_L,
+    v_LC_L=(0, 0, 0),
+    q_IT=IDENTITY_Q,
+    w_IT_T=(0, 0, 0),
+    q_IC=IDENTITY_Q,
+    w_IC_C=(0, 0, 0),
+    w_IL_L=(0, 0, 0),
+):
+    monitor.GetInputPort("sensed").FixValue(
+        context,
+        sensed_vector(np.r_[p_LC_L, v_LC_L], IDENTITY_Q, np.asarray(w_IL_L, float),
+                      np.r_[q_IT, w_IT_T], np.r_[q_IC, w_IC_C]),
+    )  # fmt: skip
 
 
 def read(monitor, context, name):

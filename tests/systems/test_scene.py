@@ -17,7 +17,7 @@ from pydrake.common.yaml import yaml_load_typed
 from pydrake.geometry import SceneGraph
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import ConstantVectorSource, TrajectorySource
+from pydrake.systems.primitives import ConstantVectorSource, Multiplexer, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 from scipy.spatial.transform import Rotation
 
@@ -28,6 +28,7 @@ from rpod.diagrams.recording import (
     start_recording,
 )
 from rpod.systems.scene import RendezvousScene, SceneConfig
+from rpod.systems.sensed import SENSED_FIELDS, sensed_vector
 
 CHROMIUM = Path("/usr/bin/chromium")
 DURATION_S = 20.0
@@ -43,7 +44,7 @@ def _wxyz(rotation: Rotation) -> np.ndarray:
 
 
 def _add_sources(builder: DiagramBuilder, q_IL: np.ndarray) -> dict:
-    """Adds sources for the four scene inputs; returns their output ports by input name."""
+    """Adds sources of the sensed bundle; returns {'sensed': its port}."""
     velocity = (P_END_L - P_START_L) / DURATION_S
     relative_state = PiecewisePolynomial.FirstOrderHold(
         [0.0, DURATION_S], np.column_stack([np.r_[P_START_L, velocity], np.r_[P_END_L, velocity]])
@@ -62,7 +63,11 @@ def _add_sources(builder: DiagramBuilder, q_IL: np.ndarray) -> dict:
         "target_attitude": builder.AddSystem(TrajectorySource(target_attitude)),
         "chaser_attitude": builder.AddSystem(ConstantVectorSource(np.r_[q_IC, 0.0, 0.0, 0.0])),
     }
-    return {name: system.get_output_port() for name, system in sources.items()}
+    sources["w_IL_L"] = builder.AddSystem(ConstantVectorSource(np.zeros(3)))
+    bundle = builder.AddSystem(Multiplexer([size for _, size in SENSED_FIELDS]))
+    for index, (name, _) in enumerate(SENSED_FIELDS):
+        builder.Connect(sources[name].get_output_port(), bundle.get_input_port(index))
+    return {"sensed": bundle.get_output_port()}
 
 
 def test_config_defaults_and_validation():
@@ -92,19 +97,15 @@ def test_poses_in_lvlh_match_independent_rotation():
     p_LC_L = np.array([1.0, -12.0, 0.5])
     scene_graph = SceneGraph()
     scene = RendezvousScene(scene_graph, make_headless_meshcat(), SceneConfig())
-    assert [scene.get_input_port(i).get_name() for i in range(4)] == [
-        "relative_state_L",
-        "q_IL",
-        "target_attitude",
-        "chaser_attitude",
-    ]
-    assert [scene.get_input_port(i).size() for i in range(4)] == [6, 4, 7, 7]
+    assert scene.num_input_ports() == 1 and scene.get_input_port(0).get_name() == "sensed"
+    assert scene.get_input_port(0).size() == 27  # the sensed bundle, rpod.systems.sensed
     context = scene.CreateDefaultContext()
-    scene.GetInputPort("relative_state_L").FixValue(context, np.r_[p_LC_L, 0.1, 0.2, 0.3])
     # Non-unit quaternions (scaled by 2) as a drifting integrator would give.
-    scene.GetInputPort("q_IL").FixValue(context, 2.0 * _wxyz(R_IL))
-    scene.GetInputPort("target_attitude").FixValue(context, np.r_[2.0 * _wxyz(R_IT), 0, 0, 1])
-    scene.GetInputPort("chaser_attitude").FixValue(context, np.r_[_wxyz(R_IC), 0, 0, 0])
+    scene.GetInputPort("sensed").FixValue(
+        context,
+        sensed_vector(np.r_[p_LC_L, 0.1, 0.2, 0.3], 2.0 * _wxyz(R_IL), np.zeros(3),
+                      np.r_[2.0 * _wxyz(R_IT), 0, 0, 1], np.r_[_wxyz(R_IC), 0, 0, 0]),
+    )  # fmt: skip
 
     poses = scene.get_geometry_pose_output_port().Eval(context)
     assert poses.size() == 2

@@ -21,6 +21,7 @@ from rpod.planners.pointing import min_rotation
 from rpod.planners.soft_capture import SoftCaptureConfig
 from rpod.scenarios.loader import load_scenario
 from rpod.systems import soft_capture_controller
+from rpod.systems.sensed import sensed_vector
 from rpod.systems.soft_capture_controller import (
     MODE_FALLBACK,
     PLANNER_STATUSES,
@@ -48,11 +49,11 @@ def _initialised(config, w_IT_T):
     controller = SoftCaptureController(config, J_CHASER, J_TARGET)
     context = controller.CreateDefaultContext()
     x0, q_LC, n = _start()
-    controller.GetInputPort("relative_state_L").FixValue(context, x0)
-    controller.GetInputPort("q_IL").FixValue(context, Q_IDENTITY)  # L = I at this instant
-    controller.GetInputPort("w_IL_L").FixValue(context, np.array([0.0, 0.0, n]))
-    controller.GetInputPort("target_attitude").FixValue(context, np.r_[Q_IDENTITY, w_IT_T])
-    controller.GetInputPort("chaser_attitude").FixValue(context, np.r_[q_LC, 0.0, 0.0, 0.0])
+    controller.GetInputPort("sensed").FixValue(
+        context,  # L = I at this instant
+        sensed_vector(x0, Q_IDENTITY, np.array([0.0, 0.0, n]), np.r_[Q_IDENTITY, w_IT_T],
+                      np.r_[q_LC, 0.0, 0.0, 0.0]),
+    )  # fmt: skip
     simulator = Simulator(controller, context)
     simulator.Initialize()
     return controller, simulator
@@ -62,8 +63,7 @@ def test_structure():
     controller = SoftCaptureController(SoftCaptureControllerConfig(), J_CHASER, J_TARGET)
     inputs = {controller.get_input_port(i).get_name(): controller.get_input_port(i).size()
               for i in range(controller.num_input_ports())}  # fmt: skip
-    assert inputs == {"relative_state_L": 6, "q_IL": 4, "w_IL_L": 3, "target_attitude": 7,
-                      "chaser_attitude": 7}  # fmt: skip
+    assert inputs == {"sensed": 27}  # the sensed bundle, rpod.systems.sensed
     outputs = {
         controller.get_output_port(i).get_name() for i in range(controller.num_output_ports())
     }
@@ -179,7 +179,8 @@ def test_a_cloned_context_keeps_its_own_memory():
     clone = simulator.get_context().Clone()
     simulator.AdvanceTo(10.05)  # the replan at 10 s adds a record
     assert [r["kind"] for r in controller.plan_records(simulator.get_context())] == [
-        "initial", "replan"
+        "initial",
+        "replan",
     ]
     assert [r["kind"] for r in controller.plan_records(clone)] == ["initial"]
 
@@ -222,7 +223,9 @@ def test_a_replan_the_checker_rejects_keeps_the_previous_plan(monkeypatch):
     simulator.AdvanceTo(9.95)
     context = simulator.get_context()
     knot_10 = controller.plan_records(context)[0]["x"][10]
-    controller.GetInputPort("relative_state_L").FixValue(context, np.array(knot_10))
+    sensed = controller.GetInputPort("sensed").Eval(context).copy()
+    sensed[0:6] = knot_10  # relative_state_L
+    controller.GetInputPort("sensed").FixValue(context, sensed)
     simulator.AdvanceTo(10.05)
     initial, replan = controller.plan_records(context)
     assert initial["accepted"] and initial["check_passed"] is True
