@@ -1,8 +1,9 @@
 """Worker side of a campaign: each run executes in a child process that can be killed.
 
 Owns: `run_case`, the Dask task that runs one planned run and always returns a result record
-(it never raises for a run's failure), and the runner child process (`python -m
-rpod.scenarios.harness`) that builds and simulates the scenario.
+(it never raises for a run's failure), the runner child process (`python -m
+rpod.scenarios.harness`) that builds and simulates the scenario, and `LocalWorker`, the worker
+class of the local cluster (sweep.py): no HTTP server, SIGINT ignored.
 Does not own: planning, scheduling, storing (campaign.py, sweep.py, store.py).
 
 Why a child process. A Python thread cannot be killed, and a Dask task runs in a thread of the
@@ -52,6 +53,36 @@ FAULTS_ENV = "RPOD_CAMPAIGN_FAULTS"
 RUNNER_STARTUP_TIMEOUT_S = 300.0  # importing pydrake on a cold, slow file system
 STDERR_KEPT_BYTES = 16384
 DETAIL_CHARS = 4000
+MAX_WAIT_S = 3600.0  # longest single select(): a huge timeout_s is waited for in slices
+
+
+def __getattr__(name: str):
+    """`LocalWorker`, made on first use, so that the runner child never imports distributed."""
+    if name != "LocalWorker":
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    from distributed import Worker
+
+    class LocalWorker(Worker):
+        """A worker of the local cluster (sweep.py): no HTTP server, and SIGINT ignored.
+
+        The driver starts the cluster with SIGINT blocked, so this process starts with it
+        blocked; here it becomes ignored (a Ctrl-C already pending is dropped), as in the runners.
+        Ctrl-C is the driver's business: it closes the cluster.
+        """
+
+        def __init__(self, *args, **kwargs):
+            if threading.current_thread() is threading.main_thread():
+                signal.signal(signal.SIGINT, signal.SIG_IGN)
+                signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+            super().__init__(*args, **kwargs)
+
+        def start_http_server(self, *args, **kwargs):
+            """None: a worker starts one even without a dashboard (metrics, health), and the
+            campaign uses none of it."""
+
+    LocalWorker.__qualname__ = "LocalWorker"  # pickled by reference, as harness.LocalWorker
+    globals()[name] = LocalWorker
+    return LocalWorker
 
 
 class _Timeout(Exception):
@@ -113,9 +144,10 @@ class _Runner:
             remaining = None if deadline is None else deadline - time.monotonic()
             if remaining is not None and remaining <= 0:
                 raise _Timeout()
-            readable, _, _ = select.select([descriptor], [], [], remaining)
+            wait = None if remaining is None else min(remaining, MAX_WAIT_S)
+            readable, _, _ = select.select([descriptor], [], [], wait)
             if not readable:
-                raise _Timeout()
+                continue  # the deadline is checked above
             chunk = os.read(descriptor, 65536)
             if not chunk:
                 raise _Died(self.exit_reason())
@@ -292,7 +324,7 @@ def _execute(request: dict, bases: dict) -> dict:
             )
         else:
             summary = simulate(scenario).summary
-    except Exception as error:  # a run that raises is a failed run, not a failed campaign
+    except Exception as error:  # noqa: BLE001 - a failed run, not a failed campaign
         message = (str(error).strip().splitlines() or [""])[0]
         return {
             "status": "failed",

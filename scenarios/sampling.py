@@ -33,6 +33,7 @@ from rpod.diagrams.scenario import ScenarioError
 from rpod.models.cw import passively_safe_state
 from rpod.models.gravity import MU_EARTH_M3_S2, R_EARTH_M
 from rpod.planners.pointing import min_rotation
+from rpod.scenarios.loader import quote
 
 DISTRIBUTIONS = ("uniform", "normal", "log_uniform", "choice", "direction", "attitude")
 
@@ -61,10 +62,13 @@ def _numbers(value, location: str) -> np.ndarray:
         and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
     )
     if not (is_number or is_list):
-        raise ScenarioError(location, f"expected a number or a list of numbers, got {value!r}")
-    array = np.asarray(value, dtype=float)
+        raise ScenarioError(location, f"expected a number or a list of numbers, got {quote(value)}")
+    try:
+        array = np.asarray(value, dtype=float)
+    except OverflowError:  # an integer beyond the floats
+        raise ScenarioError(location, f"must be finite, got {quote(value)}") from None
     if not np.all(np.isfinite(array)):
-        raise ScenarioError(location, f"must be finite, got {value!r}")
+        raise ScenarioError(location, f"must be finite, got {quote(value)}")
     return array
 
 
@@ -134,7 +138,8 @@ def parse_distribution(data, location: str) -> Distribution:
     kind = data["dist"]
     if kind not in DISTRIBUTIONS:
         raise ScenarioError(
-            f"{location}.dist", f"unknown distribution {kind!r} (known: {', '.join(DISTRIBUTIONS)})"
+            f"{location}.dist",
+            f"unknown distribution {quote(kind)} (known: {', '.join(DISTRIBUTIONS)})",
         )
     allowed = _PARAMETERS[kind]
     for key in data:
@@ -162,23 +167,32 @@ def parse_distribution(data, location: str) -> Distribution:
         high = _numbers(data["high"], f"{location}.high")
         _same_length({"low": low, "high": high}, location)
         if not np.all(high > low):
-            raise ScenarioError(f"{location}.high", f"must be greater than low ({data['low']!r})")
+            raise ScenarioError(
+                f"{location}.high", f"must be greater than low ({quote(data['low'])})"
+            )
         if kind == "log_uniform" and not np.all(low > 0.0):
             raise ScenarioError(
-                f"{location}.low", f"must be positive for log_uniform, got {data['low']!r}"
+                f"{location}.low", f"must be positive for log_uniform, got {quote(data['low'])}"
             )
+        with np.errstate(over="ignore"):
+            if kind == "uniform" and not np.all(np.isfinite(high - low)):
+                raise ScenarioError(f"{location}.high", "high - low must be a finite number")
         return Distribution(kind, {"low": low, "high": high})
     if kind == "normal":
         mean = _numbers(data["mean"], f"{location}.mean")
         std = _numbers(data["std"], f"{location}.std")
         _same_length({"mean": mean, "std": std}, location)
         if not np.all(std >= 0.0):
-            raise ScenarioError(f"{location}.std", f"must not be negative, got {data['std']!r}")
+            raise ScenarioError(
+                f"{location}.std", f"must not be negative, got {quote(data['std'])}"
+            )
         return Distribution(kind, {"mean": mean, "std": std})
     if kind == "choice":
         values = data["values"]
         if not isinstance(values, list) or not values:
-            raise ScenarioError(f"{location}.values", f"expected a non-empty list, got {values!r}")
+            raise ScenarioError(
+                f"{location}.values", f"expected a non-empty list, got {quote(values)}"
+            )
         weights = None
         if "weights" in data:
             weights = _numbers(data["weights"], f"{location}.weights")
@@ -186,9 +200,13 @@ def parse_distribution(data, location: str) -> Distribution:
                 raise ScenarioError(
                     f"{location}.weights", f"expected {len(values)} weights, one per value"
                 )
-            if np.any(weights < 0.0) or not weights.sum() > 0.0:
-                raise ScenarioError(f"{location}.weights", "must be non-negative and not all zero")
-            weights = weights / weights.sum()
+            with np.errstate(over="ignore"):
+                total = weights.sum()
+            if np.any(weights < 0.0) or not 0.0 < total < np.inf:
+                raise ScenarioError(
+                    f"{location}.weights", "must be non-negative, not all zero, with a finite sum"
+                )
+            weights = weights / total
         return Distribution(kind, {"values": values, "weights": weights})
     if kind == "direction":
         scale = data.get("scale", 1.0)
@@ -197,9 +215,13 @@ def parse_distribution(data, location: str) -> Distribution:
             if not scale.scalar:
                 raise ScenarioError(f"{location}.scale", "must be a scalar distribution")
         else:
-            scale = float(_numbers(scale, f"{location}.scale"))
-            if np.ndim(scale) != 0:
-                raise ScenarioError(f"{location}.scale", "must be a number")
+            value = _numbers(scale, f"{location}.scale")
+            if value.ndim != 0:
+                raise ScenarioError(
+                    f"{location}.scale",
+                    f"expected a number or a scalar distribution, got {quote(scale)}",
+                )
+            scale = float(value)
         return Distribution(kind, {"scale": scale})
     return Distribution(kind, {})  # attitude
 
@@ -215,7 +237,9 @@ def parse_scalar(data, location: str, default=None):
         return distribution
     value = _numbers(data, location)
     if value.ndim != 0:
-        raise ScenarioError(location, f"expected a number or a scalar distribution, got {data!r}")
+        raise ScenarioError(
+            location, f"expected a number or a scalar distribution, got {quote(data)}"
+        )
     return float(value)
 
 
@@ -309,7 +333,7 @@ def _bounds(value) -> tuple[float, float]:
 
 def _parse_start_range(data, location: str) -> tuple[float, float]:
     if not isinstance(data, dict):
-        raise ScenarioError(location, f"expected a mapping {{low: m, high: m}}, got {data!r}")
+        raise ScenarioError(location, f"expected a mapping {{low: m, high: m}}, got {quote(data)}")
     for key in data:
         if key not in ("low", "high"):
             raise ScenarioError(f"{location}.{key}", "unknown key (known: low, high)")
@@ -319,12 +343,12 @@ def _parse_start_range(data, location: str) -> tuple[float, float]:
             raise ScenarioError(f"{location}.{key}", "missing (start_range_m needs low and high)")
         value = _numbers(data[key], f"{location}.{key}")
         if value.ndim != 0:
-            raise ScenarioError(f"{location}.{key}", f"expected a number, got {data[key]!r}")
+            raise ScenarioError(f"{location}.{key}", f"expected a number, got {quote(data[key])}")
         values[key] = float(value)
     if values["low"] < 0.0:
-        raise ScenarioError(f"{location}.low", f"must not be negative, got {data['low']!r}")
+        raise ScenarioError(f"{location}.low", f"must not be negative, got {quote(data['low'])}")
     if not values["high"] > values["low"]:
-        raise ScenarioError(f"{location}.high", f"must be greater than low ({data['low']!r})")
+        raise ScenarioError(f"{location}.high", f"must be greater than low ({quote(data['low'])})")
     return values["low"], values["high"]
 
 
@@ -372,14 +396,14 @@ def parse_passively_safe(data, location: str) -> PassivelySafeSampler:
         if not isinstance(data["point_at_target"], bool):
             raise ScenarioError(
                 f"{location}.point_at_target",
-                f"expected true or false, got {data['point_at_target']!r}",
+                f"expected true or false, got {quote(data['point_at_target'])}",
             )
         sampler = dataclasses.replace(sampler, point_at_target=data["point_at_target"])
     if "start_range_m" in data:
         low, high = _parse_start_range(data["start_range_m"], f"{location}.start_range_m")
         # Whatever the phases, A0 <= |p_LC_L| <= sqrt(4 A0^2 + B0^2).
         (a_min, a_max), (_, b_max) = _bounds(sampler.radial_m), _bounds(sampler.cross_track_m)
-        reach = math.sqrt(4.0 * a_max**2 + b_max**2)
+        reach = math.hypot(2.0 * a_max, b_max)  # no overflow for huge amplitudes
         if high < a_min or low > reach:
             raise ScenarioError(
                 f"{location}.start_range_m",

@@ -23,16 +23,30 @@ are still never duplicated.
 Execution is at-least-once and recording is exactly-once. A run that finished on a worker after
 the driver was killed, but before its result was committed, runs again on resume.
 
+On disk. Between sweeps the store is the one file `results.sqlite`: a sweep checkpoints the WAL
+into it when it ends or is interrupted (Ctrl-C, SIGTERM). While a sweep runs, or after one was
+SIGKILLed, the latest results may be only in `results.sqlite-wal` (with `results.sqlite-shm`), so
+copy the folder, not the file; rerunning the sweep checkpoints them.
+
+Reading never writes. `open_existing` opens the file read-only: with `mode=ro` when a `-wal` file
+is there (it holds committed results), else `immutable=1`, which reads the file alone and creates
+no `-wal` or `-shm` beside it (so a store on a read-only disk can be read). An empty, truncated
+or damaged file is a ScenarioFileError, whichever statement finds the damage.
+
 Schema (`runs`): run_id (primary key), plan_index, grp (group label), case_name, grid_point
 (JSON), sample_index, overrides (JSON), status ('pending' | 'ok' | 'failed'), reason (one line:
 why it failed), detail (traceback or stderr tail), metrics (JSON: the run's summary),
 wall_time_s (the worker-side time of the run), worker, finished_at (UTC, ISO 8601).
 `meta` holds the campaign's name, source text, base scenario YAML, grid and plan fingerprint.
+`retries` keeps the reason, detail, worker and finish time of each failure that
+`rpod sweep --retry-failed` set back to pending, with the time it did so (retried_at).
 """
 
+import contextlib
 import datetime
 import hashlib
 import json
+import os
 import pathlib
 import sqlite3
 
@@ -59,6 +73,14 @@ CREATE TABLE IF NOT EXISTS runs (
     worker TEXT,
     finished_at TEXT
 );
+CREATE TABLE IF NOT EXISTS retries (
+    run_id TEXT NOT NULL,
+    reason TEXT,
+    detail TEXT,
+    worker TEXT,
+    finished_at TEXT,
+    retried_at TEXT NOT NULL
+);
 """
 
 
@@ -73,47 +95,143 @@ def store_path(results: pathlib.Path) -> pathlib.Path:
     return results / STORE_NAME if results.is_dir() or not results.suffix else results
 
 
-class ResultStore:
-    """An open results store. Every write is its own transaction, committed before returning."""
+def _now() -> str:
+    return datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="milliseconds")
 
-    def __init__(self, path: pathlib.Path):
+
+def _wal(path: pathlib.Path) -> pathlib.Path:
+    return path.with_name(path.name + "-wal")
+
+
+def _file_state(path: pathlib.Path):
+    """What changes when a writer touches the store: the file's identity, size and mtime."""
+    stat = path.stat()
+    return stat.st_ino, stat.st_size, stat.st_mtime_ns, _wal(path).exists()
+
+
+def make_folder(path: pathlib.Path, flag: str = "--out") -> list[pathlib.Path]:
+    """Creates an output folder (and its parents); the folders it made, outermost first.
+
+    ScenarioFileError naming the flag when the path is a file, lies under a file, or cannot be
+    made (no permission, a read-only or virtual file system).
+    """
+    path = pathlib.Path(path)
+    for parent in [path, *path.parents]:
+        if parent.exists() or parent.is_symlink():
+            if not parent.is_dir():
+                where = "" if parent == path else f"{parent} "
+                raise ScenarioFileError(f"{flag} {path}: {where}is not a folder")
+            break
+    made = [p for p in reversed([path, *path.parents]) if not p.exists()]
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        remove_folders(made)
+        raise ScenarioFileError(
+            f"{flag} {path}: cannot create the folder: {error.strerror or error}"
+        ) from None
+    if not os.access(path, os.W_OK | os.X_OK):
+        remove_folders(made)
+        raise ScenarioFileError(f"{flag} {path}: cannot write to the folder (no permission)")
+    return made
+
+
+def remove_folders(folders: list[pathlib.Path]) -> None:
+    """Removes folders that make_folder made, innermost first, if they are still empty."""
+    for folder in reversed(folders):
+        with contextlib.suppress(OSError):
+            folder.rmdir()
+
+
+class ResultStore:
+    """An open results store. Every write is its own transaction, committed before returning.
+
+    `ResultStore(path)` opens (or creates) it for writing: only `rpod sweep` does that, holding
+    the folder's lock. `ResultStore.open_existing(results)` opens it read-only.
+    """
+
+    def __init__(self, path: pathlib.Path, read_only: bool = False, use_wal: bool = False):
         self.path = pathlib.Path(path)
-        self._connection = sqlite3.connect(self.path, timeout=30.0)
-        self._connection.execute("PRAGMA journal_mode=WAL")
-        self._connection.execute("PRAGMA synchronous=NORMAL")
-        with self._connection:
-            self._connection.executescript(_SCHEMA)
+        self.read_only = read_only
+        self._state = None
+        with self._guard("open"):
+            if not read_only:
+                self._connection = sqlite3.connect(self.path, timeout=30.0)
+                self._connection.execute("PRAGMA journal_mode=WAL")
+                self._connection.execute("PRAGMA synchronous=NORMAL")
+                with self._connection:
+                    self._connection.executescript(_SCHEMA)
+            elif use_wal or _wal(self.path).exists():  # committed results may be in the WAL
+                uri = f"{self.path.resolve().as_uri()}?mode=ro"
+                self._connection = sqlite3.connect(uri, uri=True, timeout=30.0)
+            else:  # the file alone holds everything; read it without a -wal or -shm beside it
+                self._state = _file_state(self.path)
+                uri = f"{self.path.resolve().as_uri()}?immutable=1"
+                self._connection = sqlite3.connect(uri, uri=True)
+
+    @contextlib.contextmanager
+    def _guard(self, action: str = "read"):
+        """SQLite errors (a damaged, truncated or foreign file; a full disk) -> one line."""
+        try:
+            yield
+        except sqlite3.DatabaseError as error:
+            raise ScenarioFileError(
+                f"{self.path}: cannot {action} the results store: {error}"
+            ) from None
 
     @classmethod
-    def open_existing(cls, results) -> "ResultStore":
-        """The store of an output folder (or file) that must exist; ScenarioFileError if not."""
+    def open_existing(cls, results, use_wal: bool = False) -> "ResultStore":
+        """The store of an output folder (or file), read-only; ScenarioFileError if it is not one.
+
+        Args:
+            results: a campaign output folder or its results.sqlite.
+            use_wal: open with mode=ro even when there is no -wal file (see `changed`).
+        """
         path = store_path(results)
         if not path.is_file():
             raise ScenarioFileError(f"{results}: no results store ({STORE_NAME}) there")
+        store = cls(path, read_only=True, use_wal=use_wal)
         try:
-            store = cls(path)
-            store.meta()
-        except sqlite3.DatabaseError as error:
-            raise ScenarioFileError(f"{path}: not a results store: {error}") from None
+            with store._guard():
+                tables = {
+                    row[0]
+                    for row in store._connection.execute(
+                        "SELECT name FROM sqlite_master WHERE type = 'table'"
+                    )
+                }
+            if not {"meta", "runs"} <= tables:
+                what = "an empty file" if path.stat().st_size == 0 else "it has no runs table"
+                raise ScenarioFileError(f"{path}: not a results store ({what})")
+        except BaseException:
+            store.close()
+            raise
         return store
+
+    def changed(self) -> bool:
+        """True when a read-only store opened without its WAL was written meanwhile (read it
+        again with use_wal=True)."""
+        return self._state is not None and _file_state(self.path) != self._state
+
+    def check(self) -> None:
+        """ScenarioFileError unless SQLite's quick_check finds every page sound."""
+        with self._guard():
+            result = self._connection.execute("PRAGMA quick_check").fetchall()
+        if result != [("ok",)]:
+            raise ScenarioFileError(
+                f"{self.path}: cannot read the results store: damaged ({result[0][0]})"
+            )
 
     @staticmethod
     def check_compatible(path: pathlib.Path, fingerprint: str, run_count: int) -> None:
-        """ScenarioFileError if an existing store at path holds a different plan."""
-        if not path.is_file():
+        """ScenarioFileError if an existing store at path is damaged or holds a different plan."""
+        if not path.exists():
             return
-        try:
-            connection = sqlite3.connect(f"file:{path}?mode=ro", uri=True, timeout=30.0)
-            try:
-                row = connection.execute(
-                    "SELECT value FROM meta WHERE key = 'plan_fingerprint'"
-                ).fetchone()
-                stored_count = connection.execute("SELECT COUNT(*) FROM runs").fetchone()[0]
-            finally:
-                connection.close()
-        except sqlite3.DatabaseError as error:
-            raise ScenarioFileError(f"{path}: not a results store: {error}") from None
-        if row is not None and row[0] != fingerprint:
+        if not path.is_file():
+            raise ScenarioFileError(f"{path}: --out: is not a results store file")
+        with ResultStore.open_existing(path) as store:
+            store.check()
+            stored, stored_count = store.fingerprint(), store.run_count()
+        if stored is not None and stored != fingerprint:
             raise ScenarioFileError(
                 f"{path}: --out: holds the results of a different plan ({stored_count} runs "
                 f"stored, {run_count} planned; the base, the variations or the seed differ); "
@@ -129,9 +247,27 @@ class ResultStore:
     def __exit__(self, *exc):
         self.close()
 
+    def fingerprint(self) -> str | None:
+        """The stored plan's fingerprint (None before a plan was written)."""
+        with self._guard():
+            row = self._connection.execute(
+                "SELECT value FROM meta WHERE key = 'plan_fingerprint'"
+            ).fetchone()
+        return None if row is None else row[0]
+
+    def run_count(self) -> int:
+        with self._guard():
+            return self._connection.execute("SELECT COUNT(*) FROM runs").fetchone()[0]
+
     def write_plan(self, meta: dict, runs) -> None:
         """Stores the campaign's metadata and inserts every planned run not already there."""
-        rows = [
+        fingerprint = plan_fingerprint(r.run_id for r in runs)
+        stored = self.fingerprint()
+        if stored is not None and stored != fingerprint:  # another plan got here first
+            raise ScenarioFileError(
+                f"{self.path}: --out: holds the results of a different plan; choose another --out"
+            )
+        rows = (
             (
                 r.run_id,
                 r.index,
@@ -142,13 +278,9 @@ class ResultStore:
                 json.dumps(r.overrides),
             )
             for r in runs
-        ]
-        meta = {
-            **meta,
-            "schema_version": SCHEMA_VERSION,
-            "plan_fingerprint": plan_fingerprint(r.run_id for r in runs),
-        }
-        with self._connection:
+        )
+        meta = {**meta, "schema_version": SCHEMA_VERSION, "plan_fingerprint": fingerprint}
+        with self._guard("write"), self._connection:
             self._connection.executemany(
                 "INSERT OR IGNORE INTO meta (key, value) VALUES (?, ?)",
                 [
@@ -165,8 +297,7 @@ class ResultStore:
     def record(self, run_id: str, result: dict) -> bool:
         """Records a finished run once; False if it was already recorded (or is unknown)."""
         status = "ok" if result["status"] == "ok" else "failed"
-        finished = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="milliseconds")
-        with self._connection:
+        with self._guard("write"), self._connection:
             cursor = self._connection.execute(
                 "UPDATE runs SET status = ?, reason = ?, detail = ?, metrics = ?, wall_time_s = ?,"
                 " worker = ?, finished_at = ? WHERE run_id = ? AND status = 'pending'",
@@ -177,47 +308,76 @@ class ResultStore:
                     json.dumps(result["metrics"]) if result.get("metrics") is not None else None,
                     result.get("wall_time_s"),
                     result.get("worker"),
-                    finished,
+                    _now(),
                     run_id,
                 ),
             )
         return cursor.rowcount == 1
 
+    def retry_failed(self) -> int:
+        """Sets every failed run back to pending, keeping its failure in `retries`; how many."""
+        with self._guard("write"), self._connection:
+            self._connection.execute(
+                "INSERT INTO retries (run_id, reason, detail, worker, finished_at, retried_at) "
+                "SELECT run_id, reason, detail, worker, finished_at, ? FROM runs "
+                "WHERE status = 'failed'",
+                (_now(),),
+            )
+            cursor = self._connection.execute(
+                "UPDATE runs SET status = 'pending', reason = NULL, detail = NULL, metrics = NULL,"
+                " wall_time_s = NULL, worker = NULL, finished_at = NULL WHERE status = 'failed'"
+            )
+        return cursor.rowcount
+
+    def checkpoint(self) -> None:
+        """Copies the WAL into results.sqlite and empties it: the file alone holds every result."""
+        with self._guard("write"):
+            self._connection.execute("PRAGMA wal_checkpoint(TRUNCATE)").fetchall()
+
     def pending_ids(self) -> list[str]:
         """Ids of the runs not yet recorded, in plan order."""
-        rows = self._connection.execute(
-            "SELECT run_id FROM runs WHERE status = 'pending' ORDER BY plan_index"
-        )
-        return [row[0] for row in rows]
+        with self._guard():
+            rows = self._connection.execute(
+                "SELECT run_id FROM runs WHERE status = 'pending' ORDER BY plan_index"
+            )
+            return [row[0] for row in rows]
 
     def counts(self) -> dict:
         """{'pending': n, 'ok': n, 'failed': n}."""
         counts = {"pending": 0, "ok": 0, "failed": 0}
-        for status, count in self._connection.execute(
-            "SELECT status, COUNT(*) FROM runs GROUP BY status"
-        ):
-            counts[status] = count
+        with self._guard():
+            for status, count in self._connection.execute(
+                "SELECT status, COUNT(*) FROM runs GROUP BY status"
+            ):
+                counts[status] = count
         return counts
 
     def meta(self) -> dict:
         """The campaign metadata (JSON values decoded where they were JSON)."""
         meta = {}
-        for key, value in self._connection.execute("SELECT key, value FROM meta"):
-            try:
-                meta[key] = json.loads(value) if key in ("grid", "run_count") else value
-            except json.JSONDecodeError:
-                meta[key] = value
+        with self._guard():
+            for key, value in self._connection.execute("SELECT key, value FROM meta"):
+                try:
+                    meta[key] = json.loads(value) if key in ("grid", "run_count") else value
+                except json.JSONDecodeError:
+                    meta[key] = value
         return meta
 
     def rows(self) -> list[dict]:
         """Every run as a dict, JSON columns decoded, in plan order."""
-        cursor = self._connection.execute("SELECT * FROM runs ORDER BY plan_index")
-        names = [column[0] for column in cursor.description]
         rows = []
-        for values in cursor:
-            row = dict(zip(names, values))
-            for key in ("grid_point", "overrides", "metrics"):
-                if row[key] is not None:
-                    row[key] = json.loads(row[key])
-            rows.append(row)
+        with self._guard():
+            cursor = self._connection.execute("SELECT * FROM runs ORDER BY plan_index")
+            names = [column[0] for column in cursor.description]
+            for values in cursor:
+                row = dict(zip(names, values))
+                for key in ("grid_point", "overrides", "metrics"):
+                    if row[key] is not None:
+                        try:
+                            row[key] = json.loads(row[key])
+                        except json.JSONDecodeError as error:
+                            raise sqlite3.DatabaseError(
+                                f"run {row['run_id']}: {key} is not JSON ({error})"
+                            ) from None
+                rows.append(row)
         return rows

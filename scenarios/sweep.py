@@ -1,24 +1,35 @@
 """The campaign engine: runs a planned campaign on Dask and writes each result as it arrives.
 
 Owns: choosing the cluster, submitting the runs, recording results, the progress line, and
-stopping cleanly. By default it starts a LocalCluster on this machine: one process per core,
+stopping cleanly. By default it starts a local cluster on this machine: one process per core,
 one thread each, on 127.0.0.1. With `scheduler=` it uses an existing Dask distributed cluster.
 Does not own: the plan (campaign.py), the per-run process and its timeout (harness.py), or the
 store's format (store.py).
 
-Order of work, so that bad input starts nothing:
-1. The plan is built and every run is validated (campaign.plan_runs).
-2. An existing store must hold the same plan.
-3. The cluster is reached, or started. An unreachable scheduler, or one with no workers, is
-   an error, and no folder has been made yet.
-4. Then the output folder, a lock file (one driver per folder) and the store are made, and the
-   pending runs are submitted.
+Order of work, so that bad input starts nothing and a refusal comes before any cluster:
+1. The plan is built and every run is validated (campaign.plan_runs); --workers and
+   --timeout-s are checked.
+2. An existing store must be sound (SQLite's quick_check, read-only) and hold the same plan.
+3. The output folder is made (an --out that is a file, lies under one, or cannot be written
+   is refused) and locked (fcntl on OUT/.sweep.lock: one driver per folder).
+4. The cluster is reached, or started. An unreachable scheduler, or one with no workers, is
+   an error, and the folder and lock made in step 3 are removed again.
+5. The store is opened and the pending runs are submitted.
+
+The local cluster. Its scheduler, nannies and workers talk TLS, with a self-signed certificate
+made in memory for this sweep (`distributed.security.Security.temporary()`), which every one
+of them requires of its peers: another local user cannot connect a client and run code in the
+workers. None of them starts an HTTP server (Dask starts one even with the dashboard off:
+metrics and health routes, on 127.0.0.1:8787 for the scheduler). An external cluster
+(`--scheduler`) is what its owner made it: Dask's protocol unpickles what the scheduler sends,
+so name only a cluster you trust.
 
 Submission keeps a bounded window of runs in flight: twice the cluster's threads, at least 8.
 So the driver's memory and the scheduler's task count stay small for 100,000-run campaigns,
 and a stop leaves little work to throw away. Each result is committed to SQLite when it
 arrives. Resuming is running the same command again: the runs still `pending` in the store
-are all that is submitted.
+are all that is submitted (with `retry_failed`, the failed ones are set back to pending first,
+their failures kept in the store's `retries` table).
 
 Failures, and where they are caught:
 - The run raises: the runner records it (harness.py).
@@ -27,18 +38,23 @@ Failures, and where they are caught:
 - The run's worker process dies: Dask reschedules the run on another worker. After
   `distributed.scheduler.allowed-failures` deaths (Dask's default is 3; it is the scheduler's
   setting), the future raises KilledWorker, and the run is recorded failed here. Dask counts
-  a death against every run the worker held. So the LocalCluster's scheduler is made with
+  a death against every run the worker held. So the local cluster's scheduler is made with
   worker-saturation 1.0, and a worker holds only the run it is running.
 - The scheduler is lost (an external cluster): Dask cancels the runs in flight. The driver
   stops (exit 1), and they stay pending for the rerun.
 - Ctrl-C (or SIGTERM): submitting stops, runs in flight are cancelled, the cluster is closed,
-  and every committed result stays. Runs in flight are pending again and run on resume.
+  and every committed result stays. Runs in flight are pending again and run on resume. One
+  that arrives while the local cluster starts is kept until it has started, then honoured the
+  same way. The workers never see the terminal's Ctrl-C: they start with SIGINT blocked and
+  then ignore it (harness.LocalWorker).
+- At the end, and on a stop, the WAL is checkpointed: results.sqlite alone holds every result.
 """
 
 import contextlib
 import dataclasses
 import datetime
 import logging
+import math
 import os
 import pathlib
 import shutil
@@ -51,11 +67,20 @@ from collections import deque
 
 from rpod.scenarios.campaign import Campaign, PlannedRun
 from rpod.scenarios.loader import ScenarioFileError
-from rpod.scenarios.store import STORE_NAME, ResultStore, plan_fingerprint
+from rpod.scenarios.store import (
+    STORE_NAME,
+    ResultStore,
+    make_folder,
+    plan_fingerprint,
+    remove_folders,
+)
 
 LOCK_NAME = ".sweep.lock"
 DEFAULT_CONNECT_TIMEOUT_S = 10.0
 MIN_WINDOW = 8
+# Local workers allowed per core this process may use: each is a process with a runner child,
+# and the driver's memory grows with every worker it starts.
+MAX_WORKERS_PER_CORE = 4
 
 
 @dataclasses.dataclass
@@ -127,39 +152,146 @@ class Progress:
         self.stream.flush()
 
 
-def _connect(scheduler: str | None, workers: int | None, connect_timeout_s: float):
-    """(client, cluster or None); ScenarioFileError when the scheduler cannot be used."""
-    import dask
-    from distributed import Client, LocalCluster
+def usable_cores() -> int:
+    """The cores this process may run on."""
+    return len(os.sched_getaffinity(0))
 
+
+def check_workers(workers: int | None) -> None:
+    """ScenarioFileError when --workers asks for more than MAX_WORKERS_PER_CORE per core."""
+    limit = MAX_WORKERS_PER_CORE * usable_cores()
+    if workers is not None and workers > limit:
+        raise ScenarioFileError(
+            f"--workers {workers}: above the limit of {limit} ({MAX_WORKERS_PER_CORE} x the "
+            f"{usable_cores()} cores this process may use)"
+        )
+
+
+class _StopSignals:
+    """SIGINT and SIGTERM stop the sweep with KeyboardInterrupt (SIGTERM as Ctrl-C does).
+
+    While `deferred()` (the local cluster starting) they are only remembered, and
+    `raise_if_requested()` raises once the cluster exists, so that it can be closed.
+    """
+
+    def __init__(self):
+        self.deferring = False
+        self.requested = False
+
+    def __call__(self, signum, frame):
+        if self.deferring:
+            self.requested = True
+            return
+        raise KeyboardInterrupt()
+
+    @contextlib.contextmanager
+    def installed(self):
+        try:
+            previous = {s: signal.signal(s, self) for s in (signal.SIGINT, signal.SIGTERM)}
+        except ValueError:  # not the main thread: signals are not ours to handle
+            yield
+            return
+        try:
+            yield
+        finally:
+            for signum, handler in previous.items():
+                signal.signal(signum, handler)
+
+    @contextlib.contextmanager
+    def deferred(self):
+        """Remembers stops; blocks SIGINT in this thread, so what starts inside inherits it
+        blocked (threads, and worker processes, which then ignore it)."""
+        self.deferring = True
+        mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:
+            yield
+        finally:
+            if signal.SIGINT in signal.sigpending():
+                signal.sigtimedwait({signal.SIGINT}, 0)
+                self.requested = True
+            signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+            self.deferring = False
+
+    def raise_if_requested(self) -> None:
+        if self.requested:
+            self.requested = False
+            raise KeyboardInterrupt()
+
+
+def _quiet_dask() -> None:
     for name in ("distributed", "distributed.client"):  # Dask sets both levels
         logging.getLogger(name).setLevel(logging.ERROR)
-    if scheduler is None:
-        count = workers or len(os.sched_getaffinity(0))
-        # Worker processes inherit SIGINT ignored, so that Ctrl-C reaches only the driver,
-        # which then closes the cluster itself.
-        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _start_local_cluster(workers: int | None, stop: _StopSignals):
+    """(client, cluster) on 127.0.0.1: TLS with a temporary certificate, no HTTP servers.
+
+    A stop (Ctrl-C, SIGTERM) while it starts is deferred (see _StopSignals); the caller raises
+    it once the cluster exists, or when starting failed because of it.
+    """
+    from multiprocessing import resource_tracker
+
+    import dask
+    from distributed import Client, Nanny, Scheduler, SpecCluster
+    from distributed.security import Security
+
+    from rpod.scenarios.harness import LocalWorker
+
+    class LocalScheduler(Scheduler):
+        def start_http_server(self, *args, **kwargs):
+            """None: the scheduler starts one even without a dashboard (port 8787)."""
+
+    _quiet_dask()
+    count = workers or usable_cores()
+    security = Security.temporary()  # in memory: a key pair and a self-signed certificate
+    common = {"host": "127.0.0.1", "protocol": "tls://", "security": security}
+    scheduler = {
+        "cls": LocalScheduler,
+        "options": {**common, "port": 0, "dashboard": False, "dashboard_address": None},
+    }
+    worker = {
+        "cls": Nanny,
+        "options": {
+            **common,
+            "worker_class": LocalWorker,
+            "nthreads": 1,
+            "memory_limit": 1.0 / count,  # a share of this machine's memory, as LocalCluster
+            "dashboard": False,
+            "dashboard_address": None,
+            "silence_logs": logging.CRITICAL,
+        },
+    }
+    # The worker processes must start with SIGINT blocked (stop.deferred), so they must be
+    # spawned from threads that block it. multiprocessing's resource tracker, when the first
+    # process spawned starts it, unblocks SIGINT in the spawning thread: start it before.
+    resource_tracker.ensure_running()
+    # worker-saturation 1.0: a worker holds only the run it is running (Dask's default, 1.1,
+    # gives a 1-thread worker two). When a worker dies, Dask counts a death against every run
+    # the worker held, so this keeps the runs queued next to a run that kills its worker from
+    # being failed with it. The scheduler reads it when it is made (it runs in this process).
+    with stop.deferred(), dask.config.set({"distributed.scheduler.worker-saturation": 1.0}):
+        cluster = SpecCluster(
+            scheduler=scheduler,
+            workers={index: worker for index in range(count)},
+            worker=worker,
+            security=security,
+            silence_logs=logging.CRITICAL,
+        )
         try:
-            # worker-saturation 1.0: a worker holds only the run it is running (Dask's default,
-            # 1.1, gives a 1-thread worker two). When a worker dies, Dask counts a death against
-            # every run the worker held, so this keeps the runs queued next to a run that kills
-            # its worker from being failed with it.
-            # The scheduler reads it when it is made (it runs in this process).
-            with dask.config.set({"distributed.scheduler.worker-saturation": 1.0}):
-                cluster = LocalCluster(
-                    n_workers=count,
-                    threads_per_worker=1,
-                    processes=True,
-                    host="127.0.0.1",
-                    dashboard_address=None,
-                    silence_logs=logging.CRITICAL,
-                )
-        finally:
-            signal.signal(signal.SIGINT, previous)
-        return Client(cluster), cluster
+            return Client(cluster), cluster
+        except BaseException:
+            cluster.close(timeout=20)
+            raise
+
+
+def _connect_scheduler(scheduler: str, connect_timeout_s: float):
+    """A client of an existing scheduler; ScenarioFileError when it cannot be used."""
+    from distributed import Client
+
+    _quiet_dask()
     try:
         client = Client(scheduler, timeout=connect_timeout_s)
-    except Exception as error:  # OSError, TimeoutError, ValueError (bad address), ...
+    except Exception as error:  # noqa: BLE001 - OSError, TimeoutError, ValueError (bad address)
         detail = (str(error).strip().splitlines() or [type(error).__name__])[0]
         raise ScenarioFileError(
             f"--scheduler {scheduler}: no Dask scheduler answered within "
@@ -167,13 +299,13 @@ def _connect(scheduler: str | None, workers: int | None, connect_timeout_s: floa
         ) from None
     try:
         client.wait_for_workers(1, timeout=connect_timeout_s)
-    except Exception:
+    except Exception:  # noqa: BLE001 - a timeout, or the scheduler went away
         client.close()
         raise ScenarioFileError(
             f"--scheduler {scheduler}: the scheduler has no workers (none joined within "
             f"{connect_timeout_s:g} s)"
         ) from None
-    return client, None
+    return client
 
 
 @contextlib.contextmanager
@@ -181,32 +313,30 @@ def _folder_lock(out_dir: pathlib.Path):
     """One driver per output folder (released by the OS even on SIGKILL)."""
     import fcntl
 
-    with open(out_dir / LOCK_NAME, "a+") as handle:
+    path = out_dir / LOCK_NAME
+    try:
+        handle = open(path, "a+")  # noqa: SIM115 - held for the whole sweep
+    except OSError as error:
+        raise ScenarioFileError(
+            f"--out {out_dir}: cannot create the lock file {LOCK_NAME}: {error.strerror or error}"
+        ) from None
+    with handle:
         try:
             fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
+            # A driver that made this folder and then failed removes the lock file: the file
+            # locked must still be the one at the path.
+            locked = os.stat(path).st_ino == os.fstat(handle.fileno()).st_ino
+        except (BlockingIOError, FileNotFoundError):
+            locked = False
+        except OSError as error:  # a file system without locks
             raise ScenarioFileError(
-                f"{out_dir}: --out: another `rpod sweep` is writing to this folder"
+                f"--out {out_dir}: cannot lock {LOCK_NAME}: {error.strerror or error}"
             ) from None
+        if not locked:
+            raise ScenarioFileError(
+                f"--out {out_dir}: another `rpod sweep` is writing to this folder"
+            )
         yield
-
-
-@contextlib.contextmanager
-def _sigterm_as_interrupt():
-    """SIGTERM stops the campaign as Ctrl-C does (only in the main thread)."""
-
-    def handler(signum, frame):
-        raise KeyboardInterrupt()
-
-    try:
-        previous = signal.signal(signal.SIGTERM, handler)
-    except ValueError:  # not the main thread
-        yield
-        return
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
 
 
 def _outcome(future) -> dict | None:
@@ -269,128 +399,226 @@ def run_campaign(
     timeout_s: float | None = None,
     save_runs: bool = False,
     record: bool = False,
+    retry_failed: bool = False,
     connect_timeout_s: float = DEFAULT_CONNECT_TIMEOUT_S,
     progress_stream=None,
 ) -> SweepOutcome:
     """Runs every pending run of a planned campaign; see the module docstring.
 
+    Raises ScenarioFileError on bad input (nothing is started then), and KeyboardInterrupt
+    when stopped before the store was opened (a stop later returns interrupted=True).
+
     Args:
         campaign: the loaded campaign (its base scenario goes to the workers as YAML).
         runs: campaign.plan_runs(campaign).
         out_dir: output folder; the store is out_dir/results.sqlite.
-        scheduler: address of an existing Dask scheduler, or None for a LocalCluster.
-        workers: LocalCluster processes (default: the cores this process may use).
+        scheduler: address of an existing Dask scheduler, or None for a local cluster.
+        workers: local worker processes (default: the cores this process may use; at most
+            MAX_WORKERS_PER_CORE per core).
         timeout_s: per-run limit (None: none).
         save_runs: also write each run's outputs (log.npz, plots, summary) to out_dir/runs/<id>/;
             with a remote cluster out_dir must be on a file system the workers share.
         record: also write each run's Meshcat recording (implies save_runs).
+        retry_failed: set the failed runs back to pending and run them again.
         connect_timeout_s: how long to wait for the scheduler and its first worker.
         progress_stream: where the progress line goes (default stderr).
     """
-    from distributed import as_completed
-
-    from rpod.scenarios.harness import run_case
-
+    check_workers(workers)
+    if timeout_s is not None and not 0 < timeout_s < math.inf:
+        raise ScenarioFileError(
+            f"--timeout-s {timeout_s:g}: expected a positive, finite number of seconds"
+        )
     out_dir = pathlib.Path(out_dir)
     store_file = out_dir / STORE_NAME
-    fingerprint = plan_fingerprint(r.run_id for r in runs)
-    ResultStore.check_compatible(store_file, fingerprint, len(runs))
-    if store_file.is_file():
+    ResultStore.check_compatible(store_file, plan_fingerprint(r.run_id for r in runs), len(runs))
+    made = make_folder(out_dir)
+    stop = _StopSignals()
+    try:
+        with stop.installed(), _folder_lock(out_dir):
+            return _run_locked(
+                campaign,
+                runs,
+                out_dir,
+                stop,
+                scheduler=scheduler,
+                workers=workers,
+                timeout_s=timeout_s,
+                save_runs=save_runs,
+                record=record,
+                retry_failed=retry_failed,
+                connect_timeout_s=connect_timeout_s,
+                progress_stream=progress_stream,
+            )
+    except (ScenarioFileError, KeyboardInterrupt):
+        if made and not store_file.exists():  # nothing was stored: leave nothing behind
+            with contextlib.suppress(OSError):
+                (out_dir / LOCK_NAME).unlink()
+            remove_folders(made)
+        raise
+
+
+def _run_locked(
+    campaign: Campaign,
+    runs: list[PlannedRun],
+    out_dir: pathlib.Path,
+    stop: _StopSignals,
+    *,
+    scheduler,
+    workers,
+    timeout_s,
+    save_runs,
+    record,
+    retry_failed,
+    connect_timeout_s,
+    progress_stream,
+) -> SweepOutcome:
+    """run_campaign once the folder is locked: the cluster, the store and the runs."""
+    store_file = out_dir / STORE_NAME
+    if store_file.exists():
         with ResultStore(store_file) as store:
             counts = store.counts()
-        if counts["pending"] == 0 and sum(counts.values()) == len(runs):  # nothing left to run
-            Progress(
-                campaign.name, len(runs), counts["ok"], counts["failed"], progress_stream
-            ).update(counts["ok"], counts["failed"], final=True)
-            return SweepOutcome(counts, 0, False, False, 0.0, 0.0, store_file)
+            left = counts["pending"] + (counts["failed"] if retry_failed else 0)
+            if left == 0 and sum(counts.values()) == len(runs):  # nothing to run: no cluster
+                store.checkpoint()
+                Progress(
+                    campaign.name, len(runs), counts["ok"], counts["failed"], progress_stream
+                ).update(counts["ok"], counts["failed"], final=True)
+                return SweepOutcome(counts, 0, False, False, 0.0, 0.0, store_file)
 
     started = time.perf_counter()
-    client, cluster = _connect(scheduler, workers, connect_timeout_s)
-    startup_s = time.perf_counter() - started
-    interrupted = lost = False
-    ran, run_phase_s, first_result_s = 0, 0.0, None
+    client = cluster = None
     try:
-        out_dir.mkdir(parents=True, exist_ok=True)
-        with _folder_lock(out_dir), ResultStore(store_file) as store, _sigterm_as_interrupt():
-            store.write_plan(
-                {
-                    "campaign_name": campaign.name,
-                    "campaign_source": campaign.source,
-                    "campaign_text": campaign.text,
-                    "base_name": campaign.base_name,
-                    "base_yaml": campaign.base_yaml,
-                    "grid": campaign.grid,
-                    "run_count": len(runs),
-                },
-                runs,
-            )
-            by_id = {run.run_id: run for run in runs}
-            queue = deque(store.pending_ids())
-            counts = store.counts()
-            progress = Progress(
-                campaign.name, len(runs), counts["ok"], counts["failed"], progress_stream
-            )
-            progress.update(counts["ok"], counts["failed"], final=not queue)
-            request = _requests(campaign, runs, out_dir, timeout_s, save_runs, record)
-            in_flight = {}
-            completed = as_completed()
-            window, window_checked = MIN_WINDOW, float("-inf")
-
-            def submit_more():
-                nonlocal window, window_checked
-                if time.monotonic() - window_checked > 5.0:
-                    window = max(MIN_WINDOW, 2 * sum(client.nthreads().values()))
-                    window_checked = time.monotonic()
-                while queue and len(in_flight) < window:
-                    run_id = queue.popleft()
-                    future = client.submit(
-                        run_case,
-                        request(by_id[run_id]),
-                        pure=False,
-                        key=f"rpod-run-{run_id}-{uuid.uuid4().hex[:8]}",
-                    )
-                    in_flight[future] = run_id
-                    completed.add(future)
-
-            run_phase_start = time.perf_counter()
+        if scheduler is None:
             try:
-                submit_more()
-                for future in completed:
-                    run_id = in_flight.pop(future)
-                    result = _outcome(future)
-                    future.release()
-                    if result is None:
-                        lost = True
-                        break
-                    if first_result_s is None:
-                        first_result_s = time.perf_counter() - run_phase_start
-                    if store.record(run_id, result):
-                        ran += 1
-                        key = "ok" if result["status"] == "ok" else "failed"
-                        counts[key] += 1
-                        counts["pending"] -= 1
-                    progress.update(counts["ok"], counts["failed"], final=counts["pending"] == 0)
-                    submit_more()
-            except KeyboardInterrupt:
-                interrupted = True
-            finally:
-                if in_flight:
-                    with contextlib.suppress(Exception):
-                        client.cancel(list(in_flight))
-            run_phase_s = time.perf_counter() - run_phase_start
-            if interrupted or lost:
-                progress.update(counts["ok"], counts["failed"], final=True)
-            counts = store.counts()
+                client, cluster = _start_local_cluster(workers, stop)
+            except Exception:
+                stop.raise_if_requested()  # it failed because of the stop (workers interrupted)
+                raise
+            stop.raise_if_requested()  # a stop while it started: honoured now it exists
+        else:
+            client = _connect_scheduler(scheduler, connect_timeout_s)
+        startup_s = time.perf_counter() - started
+        with ResultStore(store_file) as store:
+            try:
+                return _submit_all(
+                    campaign,
+                    runs,
+                    out_dir,
+                    store,
+                    client,
+                    startup_s,
+                    timeout_s=timeout_s,
+                    save_runs=save_runs,
+                    record=record,
+                    retry_failed=retry_failed,
+                    progress_stream=progress_stream,
+                )
+            finally:  # results.sqlite alone then holds every result (store.py, "On disk")
+                with contextlib.suppress(ScenarioFileError):
+                    store.checkpoint()
     finally:
         # Closing after a lost scheduler makes Dask log its reconnect's cancellation as an
         # error with a traceback; what matters was said above, and the store keeps the rest.
         for name in ("distributed", "distributed.client"):  # Dask sets both levels
             logging.getLogger(name).setLevel(logging.CRITICAL)
-        with contextlib.suppress(Exception):
-            client.close(timeout=10)
+        if client is not None:
+            with contextlib.suppress(Exception):
+                client.close(timeout=10)
         if cluster is not None:
             with contextlib.suppress(Exception):
                 cluster.close(timeout=20)
+
+
+def _submit_all(
+    campaign: Campaign,
+    runs: list[PlannedRun],
+    out_dir: pathlib.Path,
+    store: ResultStore,
+    client,
+    startup_s: float,
+    *,
+    timeout_s,
+    save_runs,
+    record,
+    retry_failed,
+    progress_stream,
+) -> SweepOutcome:
+    """Writes the plan, then keeps a window of pending runs in flight and records each result."""
+    from distributed import as_completed
+
+    from rpod.scenarios.harness import run_case
+
+    interrupted = lost = False
+    ran, first_result_s = 0, None
+    store.write_plan(
+        {
+            "campaign_name": campaign.name,
+            "campaign_source": campaign.source,
+            "campaign_text": campaign.text,
+            "base_name": campaign.base_name,
+            "base_yaml": campaign.base_yaml,
+            "grid": campaign.grid,
+            "run_count": len(runs),
+        },
+        runs,
+    )
+    if retry_failed:
+        store.retry_failed()
+    by_id = {run.run_id: run for run in runs}
+    queue = deque(store.pending_ids())
+    counts = store.counts()
+    progress = Progress(campaign.name, len(runs), counts["ok"], counts["failed"], progress_stream)
+    progress.update(counts["ok"], counts["failed"], final=not queue)
+    request = _requests(campaign, runs, out_dir, timeout_s, save_runs, record)
+    in_flight = {}
+    completed = as_completed()
+    window, window_checked = MIN_WINDOW, float("-inf")
+
+    def submit_more():
+        nonlocal window, window_checked
+        if time.monotonic() - window_checked > 5.0:
+            window = max(MIN_WINDOW, 2 * sum(client.nthreads().values()))
+            window_checked = time.monotonic()
+        while queue and len(in_flight) < window:
+            run_id = queue.popleft()
+            future = client.submit(
+                run_case,
+                request(by_id[run_id]),
+                pure=False,
+                key=f"rpod-run-{run_id}-{uuid.uuid4().hex[:8]}",
+            )
+            in_flight[future] = run_id
+            completed.add(future)
+
+    run_phase_start = time.perf_counter()
+    try:
+        submit_more()
+        for future in completed:
+            run_id = in_flight.pop(future)
+            result = _outcome(future)
+            future.release()
+            if result is None:
+                lost = True
+                break
+            if first_result_s is None:
+                first_result_s = time.perf_counter() - run_phase_start
+            if store.record(run_id, result):
+                ran += 1
+                key = "ok" if result["status"] == "ok" else "failed"
+                counts[key] += 1
+                counts["pending"] -= 1
+            progress.update(counts["ok"], counts["failed"], final=counts["pending"] == 0)
+            submit_more()
+    except KeyboardInterrupt:
+        interrupted = True
+    finally:
+        if in_flight:
+            with contextlib.suppress(Exception):
+                client.cancel(list(in_flight))
+    run_phase_s = time.perf_counter() - run_phase_start
+    if interrupted or lost:
+        progress.update(counts["ok"], counts["failed"], final=True)
+    counts = store.counts()
     return SweepOutcome(
-        counts, ran, interrupted, lost, startup_s, run_phase_s, store_file, first_result_s
+        counts, ran, interrupted, lost, startup_s, run_phase_s, store.path, first_result_s
     )

@@ -10,6 +10,8 @@ import subprocess
 import sys
 import time
 
+import numpy as np
+
 CLI_TIMEOUT_S = 300  # an upper bound against hangs, far above the ~10 s these campaigns take
 
 # 8 fast runs: a 2 x 2 grid x 2 samples of a short coast (~30 ms of simulation each).
@@ -38,6 +40,16 @@ grid:
   chaser.p_LC_L[1]: [-20.0, -22.0, -24.0, -26.0, -28.0, -30.0, -32.0, -34.0, -36.0, -38.0]
 """
 
+# The same shape with coasting runs (~0.3 s each: 6000 s of CW coast), for tests of the engine
+# that should not depend on a controller.
+SLOW_COAST_CAMPAIGN = """\
+description: "test: 10 coasting runs of 6000 s"
+base: coast
+overrides: {duration_s: 6000.0, log_period_s: 10.0}
+grid:
+  chaser.p_LC_L[1]: [-20.0, -22.0, -24.0, -26.0, -28.0, -30.0, -32.0, -34.0, -36.0, -38.0]
+"""
+
 # Metrics that depend only on the scenario, not on timing.
 DETERMINISTIC = [
     "final_p_LC_L",
@@ -52,6 +64,15 @@ DETERMINISTIC = [
 ]
 
 
+def assert_same_metric(value, expected, key: str) -> None:
+    """Equal to 1e-12 relative; a metric that is None (e.g. max_corridor_violation_deg of a
+    chaser that never came within the corridor's extent) must be None on both sides."""
+    if expected is None or value is None:
+        assert value is expected is None, key
+        return
+    np.testing.assert_allclose(value, expected, rtol=1e-12, err_msg=key)
+
+
 def rpod_command(*args) -> list[str]:
     return [sys.executable, "-m", "rpod.scenarios.cli", *args]
 
@@ -59,7 +80,13 @@ def rpod_command(*args) -> list[str]:
 def run_rpod(*args, cwd, env=None, timeout=CLI_TIMEOUT_S) -> subprocess.CompletedProcess:
     """Runs the real console entry point and returns the completed process."""
     return subprocess.run(
-        rpod_command(*args), cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout
+        rpod_command(*args),
+        cwd=cwd,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        check=False,
     )
 
 
@@ -164,6 +191,6 @@ class DaskCluster:
             client.wait_for_workers(workers, timeout=60)
 
     def _log(self, name):
-        handle = open(self.folder / f"{name}.log", "w")
+        handle = open(self.folder / f"{name}.log", "w")  # noqa: SIM115 - closed at teardown
         self.logs.append(handle)
         return handle

@@ -7,10 +7,10 @@ import os
 import signal
 import socket
 
-import numpy as np
 from campaign_helpers import (
     DETERMINISTIC,
     SLOW_CAMPAIGN,
+    assert_same_metric,
     rpod_command,
     run_rpod,
     store_counts,
@@ -44,9 +44,7 @@ def test_scheduler_run_gives_the_same_results_as_the_local_run(
         # ... with the same results. Same code and inputs on this machine: bit-identical; the
         # 1e-12 only allows for a different libm on a remote worker.
         for key in DETERMINISTIC:
-            np.testing.assert_allclose(
-                row["metrics"][key], local[run_id]["metrics"][key], rtol=1e-12, err_msg=key
-            )
+            assert_same_metric(row["metrics"][key], local[run_id]["metrics"][key], key)
 
 
 def test_killing_a_worker_mid_campaign_loses_no_run(dask_cluster, spawn, tmp_path):

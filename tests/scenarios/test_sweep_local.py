@@ -16,6 +16,7 @@ import pytest
 from campaign_helpers import (
     DETERMINISTIC,
     SLOW_CAMPAIGN,
+    assert_same_metric,
     rpod_command,
     run_rpod,
     store_counts,
@@ -48,7 +49,7 @@ def test_local_run_stores_every_run(small_campaign_local):
     for row, run in zip(rows, planned):
         expected = simulate(apply_overrides(campaign.base, run.overrides)).summary
         for key in DETERMINISTIC:
-            np.testing.assert_allclose(row["metrics"][key], expected[key], rtol=1e-12, err_msg=key)
+            assert_same_metric(row["metrics"][key], expected[key], key)
         assert row["overrides"] == run.overrides and row["grp"] == run.group
 
 
