@@ -20,6 +20,11 @@ For gravity == 'cw' the relative part is the LVLH state [p_LC_L, v_LC_L] and obe
 Clohessy-Wiltshire equations (paper 004 eq. 4) about the target's two-body circular orbit; for
 'free_space' (the planar air-bearing case of paper 003) there is no gravity, the target is
 fixed at the origin and L coincides with I.
+
+Where it is used. rpod.diagrams builds `rpod.systems.truth.Truth`, which integrates these
+equations together with both attitudes in one system (for speed; see its docstring). This system
+is the tested reference it is checked against (`rpod.systems.split_truth.SplitTruth`), and stays
+usable on its own, e.g. with a force given in L or I.
 """
 
 import dataclasses

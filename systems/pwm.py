@@ -21,6 +21,22 @@ Minimum ON time (`min_on_slots` = M > 1). A pulse 0 < m < M is rounded to the ne
 {0, M}: m <- M if x >= M/2 else 0, and the remainder is carried as above. Then every pulse that
 starts in a period lasts >= M slots (pulses of consecutive periods may join into longer ones),
 and |e| <= max(1/2, M/2) slots at every period end (same induction; M <= N required).
+
+Cost. One Python discrete update per slot (~2-3 us; most only move the slot index) and one
+`thruster_on` evaluation. The integrator must end a step at every slot anyway: a step must not
+straddle a switch, and pydrake cannot declare data-dependent event times. A pattern latched once
+per period with a C++ slot clock (the alternative tried for issue 9) measured 3% faster on
+hold_point, for four more systems in the diagram: not adopted.
+
+Timing against a sampled controller (measured, not designed). The slot events fire at j h, a
+controller's at k T; in floating point, (k N) h and k T differ in the last bit for some k (482 of
+the first 3000 periods for T = 0.1 s, N = 10). Drake runs unrestricted updates (the controllers')
+before discrete ones at the same instant, so the PWM latches the duty of the controller's sample
+of the same instant when the two times are equal, and of the previous sample when its own time
+is an ulp earlier. A periodic unrestricted update instead of the discrete one would latch the
+previous sample every period (one period of delay); measured on the bundled scenarios it changes
+hold_point's final hold error by 0.04 mm, and soft_capture's capture errors by 14 mm and 0.1 mm/s
+(still a capture).
 """
 
 from __future__ import annotations

@@ -9,6 +9,10 @@ the ``attitude`` output normalises it so downstream systems always receive a uni
 The state is not renormalised in place: with the error-controlled integrators used by rpod the
 norm drift stays at the integration tolerance, and a discrete projection would make the system
 hybrid for little gain.
+
+Where it is used. rpod.diagrams builds `rpod.systems.truth.Truth`, which integrates both bodies'
+attitudes with the orbits in one system (for speed). This system is the tested reference it is
+checked against (`rpod.systems.split_truth.SplitTruth`), and stays usable on its own.
 """
 
 import numpy as np

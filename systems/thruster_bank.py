@@ -5,6 +5,10 @@ every integrator stage. The equations (wrench map, gimbal pyramid, magnitude lim
 live in `rpod.models.thrusters`; this file only puts them in a Drake system. It does not
 integrate propellant mass (feed `propellant_mass_flow` to whatever owns the chaser's mass) and
 does not model thrust build-up or decay: the wrench follows the command instantly.
+
+Where it is used. For fixed layouts, rpod.diagrams builds `rpod.systems.truth.Truth`, which
+applies the same clip and wrench map inside the truth (for speed); this system is the reference
+it is checked against (`rpod.systems.split_truth.SplitTruth`) and the one for gimbaled layouts.
 """
 
 from __future__ import annotations
