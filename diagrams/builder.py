@@ -5,21 +5,17 @@ scene when asked), `simulate` (a `SimulationResult` with logs, metrics and timin
 scenario-to-system translation (thruster presets, initial attitudes).
 Does not own: files and the command line (rpod.scenarios, rpod.diagrams.outputs).
 
-Signal flow of a controlled scenario (one period of delay between the controller's sample and
-the thrusters, as on a real flight computer: the PWM latches the duty computed at the previous
-sample). The controller is a HoldPointController or a SoftCaptureController:
+Signal flow (one period of delay between the controller's sample and the thrusters, as on a
+real flight computer: the PWM latches the duty computed at the previous sample). The controller
+is whatever plug-in the scenario's `controller: !Tag` names (rpod.diagrams.controller_seam); it
+reads the sensed bundle and drives one of the actuation paths, which the builder wires:
 
-    OrbitalDynamics --relative_state_L, q_IL, w_IL_L--> controller
-    RigidBodyAttitude (target, chaser) --attitude--> controller
-    controller --body_wrench_desired--> WrenchAllocator --thruster_duty--> PwmModulator
-    PwmModulator --thruster_on--> ThrusterBank --body_wrench--> OrbitalDynamics, chaser attitude
+    truth --relative state, LVLH, both attitudes--> sensed (Multiplexer) --> controller, monitor
+    path 1: controller --body wrench--> WrenchAllocator --duty--> PwmModulator --on/off--> truth
+    path 2: controller --per-thruster levels--> PwmModulator --on/off--> truth
+    (the truth holds the thruster bank: rpod.systems.truth)
 
-Soft capture (controller type 'soft_capture'): the summary gains `capture` (the capture
-criterion, `capture_outcome`) and `plans` (every planner call of the controller); the log gains
-`controller_mode`, `planner_status`, `force_feedforward_L`, `reference_L` (the planned position
-at each sample) and the accepted plans' knots, `plan_knots_t` (P, N_max), `plan_knots_p_LC_L`
-and `plan_knots_v_LC_L` (P, N_max, 3), `plan_knots_u_L` (P, N_max - 1, 3), NaN-padded: one row
-per accepted plan, not a time series.
+The plug-in's `results` adds its summary entries (and the mission outcome) and log arrays.
 """
 
 import dataclasses
@@ -31,33 +27,31 @@ from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorC
 from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import (
     ConstantVectorSource,
-    Demultiplexer,
     LogVectorOutput,
     Multiplexer,
 )
 
+from rpod.diagrams import controller_seam
+from rpod.diagrams.controller_seam import Actuation
 from rpod.diagrams.scenario import (
     Scenario,
     body_polytopes,
+    chaser_rotation_in_lvlh,
     target_rotation_in_lvlh,
     validate_scenario,
 )
 from rpod.models import thrusters as presets
-from rpod.models.frames import quaternion_wxyz, rotation_from_rpy_deg, rotation_from_wxyz
+from rpod.models.frames import quaternion_wxyz, rotation_from_wxyz
 from rpod.models.thrusters import STANDARD_GRAVITY_M_S2, ThrusterLayout
 from rpod.systems.allocator import WrenchAllocator
-from rpod.systems.hold_point_controller import HoldPointController
+from rpod.systems.ideal_actuator import IdealActuator
 from rpod.systems.orbital_dynamics import OrbitalDynamics
 from rpod.systems.pwm import PwmModulator
 from rpod.systems.rigid_body_attitude import RigidBodyAttitude
 from rpod.systems.safety_monitor import SafetyMonitor
 from rpod.systems.sensed import SENSED_FIELDS, SENSED_PORT
-from rpod.systems.soft_capture_controller import MODES as CONTROLLER_MODES
-from rpod.systems.soft_capture_controller import PLANNER_STATUSES, SoftCaptureController
 from rpod.systems.thruster_bank import ThrusterBank
-
-HOLD_POSITION_TOLERANCE_M = 0.5  # "reached its hold point": within this of H ...
-HOLD_SPEED_TOLERANCE_M_S = 0.02  # ... and moving with it to within this.
+from rpod.systems.truth import Truth, initial_orbit_state, lvlh_of
 
 
 def make_thruster_layout(scenario: Scenario) -> ThrusterLayout:
@@ -80,53 +74,58 @@ class DiagramHandles:
     target_attitude: RigidBodyAttitude
     chaser_attitude: RigidBodyAttitude
     monitor: SafetyMonitor
-    controller: HoldPointController | SoftCaptureController | None
+    controller: object | None  # the controller plug-in's system (None: coasting)
     bank: ThrusterBank | None
     loggers: dict  # log key -> VectorLogSink
     layout: ThrusterLayout | None
     scene: object | None
+    wiring: controller_seam.ControllerWiring | None = None  # what the plug-in handed back
 
 
 def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHandles]:
     """Builds the scenario's diagram; draws it in `meshcat` when one is given."""
     validate_scenario(scenario)
     builder = DiagramBuilder()
+    connect = builder.Connect
     chaser, target = scenario.chaser, scenario.target
-    orbital = builder.AddNamedSystem(
-        "orbital_dynamics",
-        OrbitalDynamics(
+    layout = make_thruster_layout(scenario) if scenario.thrusters.enabled else None
+    # Initial attitudes are given relative to LVLH; the truth holds them relative to ECI. R_IL0
+    # goes through the q_IL quaternion, as the truth's own q_IL output gives it.
+    R_IL0 = rotation_from_wxyz(
+        quaternion_wxyz(lvlh_of(*initial_orbit_state(scenario.orbit), scenario.orbit.gravity)[0])
+    )
+    J_T = np.asarray(target.inertia_kg_m2, float)
+    J_C = np.asarray(chaser.inertia_kg_m2, float)
+    # The sensed bundle first, then the controller (it says which actuation path it drives),
+    # then the truth, built for that path.
+    bundle = builder.AddNamedSystem("sensed", Multiplexer([size for _, size in SENSED_FIELDS]))
+    sensed_port = bundle.get_output_port()
+    plugin = controller_seam.plugin_for(scenario.controller)
+    wiring = plugin.add_to_diagram(builder, scenario, sensed_port) if plugin else None
+    ideal = wiring is not None and wiring.actuation is Actuation.IDEAL
+    # One system holds the whole continuous truth: both orbits, both attitudes, the chaser's
+    # mass and the thrusters' wrench (rpod.systems.truth says why).
+    truth = builder.AddNamedSystem(
+        "truth",
+        Truth(
             scenario.orbit,
             np.asarray(chaser.p_LC_L, float),
             np.asarray(chaser.v_LC_L, float),
             chaser.mass_kg,
-            force_frame="C",
-        ),
-    )
-    # Initial attitudes are given relative to LVLH; the truth holds them relative to ECI.
-    context = orbital.CreateDefaultContext()
-    R_IL0 = rotation_from_wxyz(orbital.GetOutputPort("q_IL").Eval(context))
-    J_T = np.asarray(target.inertia_kg_m2, float)
-    J_C = np.asarray(chaser.inertia_kg_m2, float)
-    target_attitude = builder.AddNamedSystem(
-        "target_attitude",
-        RigidBodyAttitude(
             J_T,
             quaternion_wxyz(R_IL0 @ target_rotation_in_lvlh(scenario)),
             np.radians(target.w_IT_T_deg_s),
-            with_torque_input=False,
-        ),
-    )
-    chaser_attitude = builder.AddNamedSystem(
-        "chaser_attitude",
-        RigidBodyAttitude(
             J_C,
-            quaternion_wxyz(R_IL0 @ rotation_from_rpy_deg(chaser.rpy_LC_deg)),
+            quaternion_wxyz(R_IL0 @ chaser_rotation_in_lvlh(scenario)),
             np.radians(chaser.w_IC_C_deg_s),
-            with_torque_input=True,
+            None if ideal else layout,
+            wrench_input=ideal,
         ),
     )
-    connect = builder.Connect
-    connect(chaser_attitude.GetOutputPort("attitude"), orbital.GetInputPort("chaser_attitude"))
+    for index, (name, _) in enumerate(SENSED_FIELDS):
+        connect(truth.GetOutputPort(name), bundle.get_input_port(index))
+    # The handles (DiagramHandles) name the one truth system for each of its old roles.
+    orbital = target_attitude = chaser_attitude = truth
 
     loggers = {}
     period = scenario.log_period_s
@@ -134,27 +133,12 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
     def log(key, port):
         loggers[key] = LogVectorOutput(port, builder, period)
 
-    layout = bank = controller = None
+    bank = controller = None
     chaser_shape, target_shape = body_polytopes(scenario)
-    if scenario.thrusters.enabled:
-        layout = make_thruster_layout(scenario)
-        bank = builder.AddNamedSystem("thruster_bank", ThrusterBank(layout))
-        split = builder.AddNamedSystem("body_wrench_split", Demultiplexer([3, 3]))
-        connect(bank.GetOutputPort("body_wrench"), split.get_input_port(0))
-        connect(split.get_output_port(0), chaser_attitude.GetInputPort("body_torque"))
-        connect(bank.GetOutputPort("body_wrench"), orbital.GetInputPort("body_wrench"))
-        connect(
-            bank.GetOutputPort("propellant_mass_flow"), orbital.GetInputPort("propellant_mass_flow")
-        )
-        log("body_wrench", bank.GetOutputPort("body_wrench"))
-        log("command_clipped", bank.GetOutputPort("command_clipped"))
-    else:
-        zero_wrench = builder.AddNamedSystem("no_thrust", ConstantVectorSource(np.zeros(6)))
-        zero_flow = builder.AddNamedSystem("no_mass_flow", ConstantVectorSource(np.zeros(1)))
-        zero_torque = builder.AddNamedSystem("no_torque", ConstantVectorSource(np.zeros(3)))
-        connect(zero_wrench.get_output_port(), orbital.GetInputPort("body_wrench"))
-        connect(zero_flow.get_output_port(), orbital.GetInputPort("propellant_mass_flow"))
-        connect(zero_torque.get_output_port(), chaser_attitude.GetInputPort("body_torque"))
+    if layout is not None and not ideal:
+        bank = truth
+        log("body_wrench", truth.GetOutputPort("body_wrench"))
+        log("command_clipped", truth.GetOutputPort("command_clipped"))
 
     relative = orbital.GetOutputPort("relative_state_L")
     q_IL = orbital.GetOutputPort("q_IL")
@@ -163,57 +147,32 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
         "relative_state_L": relative,
         "q_IL": q_IL,
         "w_IL_L": w_IL_L,
-        "target_attitude": target_attitude.GetOutputPort("attitude"),
-        "chaser_attitude": chaser_attitude.GetOutputPort("attitude"),
+        "target_attitude": truth.GetOutputPort("target_attitude"),
+        "chaser_attitude": truth.GetOutputPort("chaser_attitude"),
     }
-    # The sensed bundle (rpod.systems.sensed): today the truth; a navigation filter goes here.
-    bundle = builder.AddNamedSystem("sensed", Multiplexer([size for _, size in SENSED_FIELDS]))
-    for index, (name, _) in enumerate(SENSED_FIELDS):
-        connect(sensed[name], bundle.get_input_port(index))
-    sensed_port = bundle.get_output_port()
-
+    if wiring is not None:
+        controller = wiring.system
+        for name, port in wiring.logged.items():
+            log(name, port)
     if bank is not None:
-        if scenario.controller.type == "hold_point":
-            controller = builder.AddNamedSystem(
-                "hold_point_controller",
-                HoldPointController(
-                    scenario.controller.hold_point,
-                    chaser.mass_kg,
-                    J_C,
-                    np.asarray(target.docking_port_T, float),
-                    np.asarray(target.docking_axis_T, float),
-                ),
-            )
-            logged = ("body_wrench_desired", "hold_point_L", "reference_L")
-        elif scenario.controller.type == "soft_capture":
-            controller = builder.AddNamedSystem(
-                "soft_capture_controller",
-                SoftCaptureController(
-                    scenario.controller.soft_capture, J_C, J_T, chaser_shape, target_shape
-                ),
-            )
-            logged = ("body_wrench_desired", "reference_L", "force_feedforward_L",
-                      "controller_mode", "planner_status")  # fmt: skip
-        if controller is not None:  # every controller: sensed signals in, body wrench out
-            connect(sensed_port, controller.GetInputPort(SENSED_PORT))
-            allocator = builder.AddNamedSystem("wrench_allocator", WrenchAllocator(layout))
-            connect(
-                controller.GetOutputPort("body_wrench_desired"),
-                allocator.GetInputPort("body_wrench_desired"),
-            )
-            duty = allocator.GetOutputPort("thruster_duty")
-            for name in logged:
-                log(name, controller.GetOutputPort(name))
-        else:
+        if wiring is None:
             idle = builder.AddNamedSystem("idle", ConstantVectorSource(np.zeros(layout.count)))
             duty = idle.get_output_port()
+        elif wiring.actuation is Actuation.BODY_WRENCH:
+            allocator = builder.AddNamedSystem("wrench_allocator", WrenchAllocator(layout))
+            connect(wiring.command, allocator.GetInputPort("body_wrench_desired"))
+            duty = allocator.GetOutputPort("thruster_duty")
+        elif wiring.actuation is Actuation.THRUSTER_COMMANDS:
+            duty = wiring.command
+        else:
+            raise NotImplementedError(f"actuation path {wiring.actuation} is not wired yet")
         log("thruster_duty", duty)
         if scenario.thrusters.pwm:
             pwm = builder.AddNamedSystem(
                 "pwm",
                 PwmModulator(
                     layout.count,
-                    scenario.controller.control_period_s(),
+                    wiring.control_period_s if wiring is not None else 0.1,
                     scenario.thrusters.subdivisions,
                     scenario.thrusters.min_on_slots,
                 ),
@@ -223,8 +182,29 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
             log("thruster_delivered_duty", pwm.GetOutputPort("delivered_duty"))
         else:
             command = duty
-        connect(command, bank.GetInputPort("thruster_command"))
+        connect(command, truth.GetInputPort("thruster_command"))
         log("thruster_on", command)
+    if ideal:
+        command = wiring.ideal
+        actuator = builder.AddNamedSystem(
+            "ideal_actuator",
+            IdealActuator(
+                command.quantity,
+                command.frame,
+                command.bound,
+                command.limit,
+                scenario.thrusters.isp_s,
+            ),
+        )
+        connect(wiring.command, actuator.GetInputPort("command"))
+        connect(sensed_port, actuator.GetInputPort("sensed"))
+        connect(truth.GetOutputPort("chaser_mass"), actuator.GetInputPort("chaser_mass"))
+        connect(actuator.GetOutputPort("body_wrench"), truth.GetInputPort("body_wrench"))
+        connect(
+            actuator.GetOutputPort("propellant_mass_flow"),
+            truth.GetInputPort("propellant_mass_flow"),
+        )
+        log("body_wrench", actuator.GetOutputPort("body_wrench"))
 
     monitor = builder.AddNamedSystem(
         "safety_monitor",
@@ -247,7 +227,13 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
     log("chaser_mass", orbital.GetOutputPort("chaser_mass"))
     log("target_attitude", sensed["target_attitude"])
     log("chaser_attitude", sensed["chaser_attitude"])
-    for name in ("separation_m", "corridor_violation_rad", "capture_speed_m_s"):
+    for name in (
+        "separation_m",
+        "corridor_violation_rad",
+        "capture_speed_m_s",
+        "capture_distance_m",
+        "port_distance_m",
+    ):
         log(name, monitor.GetOutputPort(name))
 
     scene = None
@@ -261,7 +247,7 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
             docking_port_T=list(target.docking_port_T),
             docking_axis_T=list(target.docking_axis_T),
             corridor_half_angle_deg=target.corridor_half_angle_deg,
-            corridor_length_m=visualization.corridor_length_m,
+            corridor_length_m=target.corridor_length_m,
             publish_period_s=visualization.publish_period_s,
             trail=visualization.trail,
             trail_max_points=visualization.trail_max_points,
@@ -275,19 +261,22 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
             scene_config,
             sensed_port,
         )
-        if isinstance(controller, SoftCaptureController):
-            from rpod.systems.scene import PlannedPathOverlay
-
-            overlay = builder.AddNamedSystem(
-                "scene.planned_path",
-                PlannedPathOverlay(meshcat, visualization.publish_period_s),
-            )
-            connect(controller.GetOutputPort("planned_path"), overlay.GetInputPort("planned_path"))
+        if wiring is not None:
+            plugin.add_scene_extras(builder, meshcat, scenario, wiring)
 
     diagram = builder.Build()
     diagram.set_name(scenario.description or "rpod")
     handles = DiagramHandles(
-        orbital, target_attitude, chaser_attitude, monitor, controller, bank, loggers, layout, scene
+        orbital,
+        target_attitude,
+        chaser_attitude,
+        monitor,
+        controller,
+        bank,
+        loggers,
+        layout,
+        scene,
+        wiring,
     )
     return diagram, handles
 
@@ -340,7 +329,13 @@ def _collect_log(diagram, context, handles: DiagramHandles, scenario: Scenario) 
     log["p_IC_I"], log["v_IC_I"] = data["chaser_state_I"][:, 0:3], data["chaser_state_I"][:, 3:6]
     log["chaser_mass_kg"] = data["chaser_mass"][:, 0]
     log["propellant_kg"] = scenario.chaser.mass_kg - log["chaser_mass_kg"]
-    for key in ("separation_m", "corridor_violation_rad", "capture_speed_m_s"):
+    for key in (
+        "separation_m",
+        "corridor_violation_rad",
+        "capture_speed_m_s",
+        "capture_distance_m",
+        "port_distance_m",
+    ):
         log[key] = data[key][:, 0]
     n = handles.layout.count if handles.layout is not None else 0
     zeros = np.zeros((count, n))
@@ -350,104 +345,19 @@ def _collect_log(diagram, context, handles: DiagramHandles, scenario: Scenario) 
     # Without PWM the duty is applied as throttle: delivered equals commanded.
     log["thruster_delivered_duty"] = data.get("thruster_delivered_duty", log["thruster_duty"])
     log["body_wrench"] = data.get("body_wrench", np.zeros((count, 6)))
-    for key in ("body_wrench_desired", "hold_point_L", "reference_L", "force_feedforward_L"):
-        if key in data:
-            log[key] = data[key]
-    for key in ("controller_mode", "planner_status"):
-        if key in data:
-            log[key] = data[key][:, 0].astype(np.int64)
+    for key in handles.wiring.logged if handles.wiring is not None else ():
+        log[key] = data[key]  # the controller's own signals, under the names it gave them
     return log
 
 
-def _json_safe(record: dict) -> dict:
-    """The record with non-finite floats as None (strict JSON has no NaN)."""
-    return {
-        key: None if isinstance(value, float) and not math.isfinite(value) else value
-        for key, value in record.items()
-    }
-
-
-def _plan_knots(records: list[dict], dt: float) -> dict:
-    """`plan_knots_t` (P, N_max), `plan_knots_p_LC_L`, `plan_knots_v_LC_L` (P, N_max, 3) and
-    `plan_knots_u_L` (P, N_max - 1, 3) of the accepted plans, NaN-padded."""
-    accepted = [r for r in records if r["accepted"]]
-    width = max((len(r["x"]) for r in accepted), default=1)
-    t = np.full((len(accepted), width), np.nan)
-    x = np.full((len(accepted), width, 6), np.nan)
-    u = np.full((len(accepted), width - 1, 3), np.nan)
-    for i, record in enumerate(accepted):
-        knots = np.asarray(record["x"], float)
-        t[i, : len(knots)] = record["t_s"] + np.arange(len(knots)) * dt
-        x[i, : len(knots)] = knots
-        u[i, : len(knots) - 1] = np.asarray(record["u"], float)
-    return {"plan_knots_t": t, "plan_knots_p_LC_L": x[..., :3], "plan_knots_v_LC_L": x[..., 3:],
-            "plan_knots_u_L": u}  # fmt: skip
-
-
-def capture_outcome(log: dict, scenario: Scenario) -> dict:
-    """The soft-capture criterion on a run's log (paper 000's eps_p, eps_v; Table I).
-
-    Capture succeeds at the first log sample where the capture points -- the chaser's D_c
-    (`chaser.capture_point_C`, in C) and the target's D_t (`target.docking_port_T`, in T) --
-    are within eps_p of each other and their relative (inertial) speed is within eps_v
-    (`capture_speed_m_s` of the SafetyMonitor), provided the true polytopes never touched
-    before (`separation_m` > 0 at every sample up to and including that one). Contact is
-    checked at the log samples: log at the control period for a run whose verdict matters.
-
-    Returns:
-        {success, reason, time_s, position_error_m, speed_error_m_s, contact_after_s,
-        planned_time_s}: the errors at the capture sample, or at the sample closest to meeting
-        both tolerances (least max(position / eps_p, speed / eps_v)) when it failed;
-        `contact_after_s` is the first contact after a successful capture (NaN if none: contact
-        after capture does not undo it, but a hold the thrusters cannot sustain -- a fast tumble
-        needs more centripetal force than they have -- ends in one, and a user should see it);
-        `planned_time_s` is the final knot of the last accepted plan (NaN without one).
-    """
-    planner = scenario.controller.soft_capture.planner
-    eps_p, eps_v = planner.capture_position_tol_m, planner.capture_speed_tol_m_s
-    D_c = np.asarray(scenario.chaser.capture_point_C, float)
-    D_t = np.asarray(scenario.target.docking_port_T, float)
-    position_error = np.empty(len(log["t"]))
-    for i, (p_LC_L, q_IL, q_IT, q_IC) in enumerate(
-        zip(log["p_LC_L"], log["q_IL"], log["q_IT"], log["q_IC"])
-    ):
-        R_LI = rotation_from_wxyz(q_IL).T
-        p_E_L = p_LC_L + R_LI @ rotation_from_wxyz(q_IC) @ D_c  # chaser capture point
-        p_D_L = R_LI @ rotation_from_wxyz(q_IT) @ D_t  # target capture point
-        p_DE_L = p_E_L - p_D_L
-        position_error[i] = np.linalg.norm(p_DE_L)
-    speed = np.asarray(log["capture_speed_m_s"], float)
-    separation = np.asarray(log["separation_m"], float)
-    met = np.flatnonzero((position_error <= eps_p) & (speed <= eps_v))
-    contact = np.flatnonzero(~(separation > 0.0))
-    outcome = {"success": False, "reason": "", "time_s": float("nan"),
-               "contact_after_s": float("nan")}  # fmt: skip
-    if len(met) and (not len(contact) or contact[0] > met[0]):
-        i = int(met[0])
-        outcome.update(success=True, reason=f"capture points within eps_p = {eps_p} m and "
-                       f"eps_v = {eps_v} m/s with no contact before")  # fmt: skip
-        if len(contact):
-            outcome["contact_after_s"] = float(log["t"][int(contact[0])])
-    elif len(contact) and (not len(met) or contact[0] <= met[0]):
-        i = int(contact[0])
-        outcome["reason"] = f"contact: the true polytopes touched at t = {log['t'][i]:.2f} s"
-    else:
-        i = int(np.argmin(np.maximum(position_error / eps_p, speed / eps_v)))
-        if not np.any(position_error <= eps_p):
-            outcome["reason"] = (f"position: the capture points never came within eps_p = "
-                                 f"{eps_p} m (closest {position_error.min():.3f} m)")  # fmt: skip
-        else:
-            within = position_error <= eps_p
-            outcome["reason"] = (
-                f"speed: while within eps_p the capture points' relative speed never fell to "
-                f"eps_v = {eps_v} m/s (least {speed[within].min():.4f} m/s)"
-            )
-    outcome.update(
-        time_s=float(log["t"][i]),
-        position_error_m=float(position_error[i]),
-        speed_error_m_s=float(speed[i]),
-    )
-    return outcome
+def _max_in_corridor(log: dict, corridor_length_m: float) -> float | None:
+    """The largest corridor violation [deg] at the samples within the corridor's extent
+    (port_distance_m <= corridor_length_m): negative when always inside the cone (the least
+    margin), None when the chaser never came within the extent."""
+    inside = log["port_distance_m"] <= corridor_length_m
+    if not np.any(inside):
+        return None
+    return float(np.degrees(np.max(log["corridor_violation_rad"][inside])))
 
 
 def _summary(log: dict, scenario: Scenario) -> dict:
@@ -460,26 +370,35 @@ def _summary(log: dict, scenario: Scenario) -> dict:
         "delta_v_m_s": float(STANDARD_GRAVITY_M_S2 * isp * math.log(mass0 / mass)),
         "propellant_kg": float(mass0 - mass),
         "min_separation_m": float(np.min(log["separation_m"])),
-        "max_corridor_violation_deg": float(np.degrees(np.max(log["corridor_violation_rad"]))),
+        # Only where the capture point is within the corridor's extent (TargetConfig).
+        "max_corridor_violation_deg": _max_in_corridor(log, scenario.target.corridor_length_m),
         "final_p_LC_L": log["p_LC_L"][-1].tolist(),
         "final_range_m": float(np.linalg.norm(log["p_LC_L"][-1])),
         "final_speed_m_s": float(np.linalg.norm(log["v_LC_L"][-1])),
         "final_capture_speed_m_s": float(log["capture_speed_m_s"][-1]),
         "clipped_command_samples": int(np.count_nonzero(log["command_clipped"])),
     }
-    if "hold_point_L" in log:
-        p_H = log["hold_point_L"][-1]
-        R_IL = rotation_from_wxyz(log["q_IL"][-1])
-        R_LT = R_IL.T @ rotation_from_wxyz(log["q_IT"][-1])
-        w_LT_L = R_LT @ log["w_IT_T"][-1] - log["w_IL_L"][-1]
-        hold_error = float(np.linalg.norm(log["p_LC_L"][-1] - p_H))
-        speed_error = float(np.linalg.norm(log["v_LC_L"][-1] - np.cross(w_LT_L, p_H)))
-        summary["final_hold_error_m"] = hold_error
-        summary["final_hold_speed_error_m_s"] = speed_error
-        summary["hold_reached"] = bool(
-            hold_error < HOLD_POSITION_TOLERANCE_M and speed_error < HOLD_SPEED_TOLERANCE_M_S
-        )
     return summary
+
+
+def _end_time_s(scenario: Scenario, handles: DiagramHandles, context, warnings: list) -> float:
+    """Where the run ends: duration_s, or the controller's planned end plus stop.hold_s when
+    stop.at_plan_end asks and it is earlier. A plan that outlasts the run is a warning."""
+    end_s = scenario.duration_s
+    if handles.wiring is None:
+        return end_s
+    plugin = controller_seam.plugin_for(scenario.controller)
+    planned = plugin.planned_end_s(handles.wiring, context)
+    if planned is None:
+        return end_s
+    if planned > end_s:
+        warnings.append(
+            f"the controller's plan ends at {planned:.1f} s, after the run's end at "
+            f"{end_s:.1f} s: raise duration_s (stop.at_plan_end then ends the run at the plan)"
+        )
+    if scenario.stop.at_plan_end:
+        end_s = min(end_s, planned + scenario.stop.hold_s)
+    return end_s
 
 
 def simulate(scenario: Scenario, meshcat=None) -> SimulationResult:
@@ -507,13 +426,14 @@ def simulate(scenario: Scenario, meshcat=None) -> SimulationResult:
         from rpod.diagrams.recording import start_recording
 
         start_recording(meshcat, fps=max(1.0 / scenario.visualization.publish_period_s, 1.0))
-    # Wall time from here: Initialize runs initialization events (the soft-capture controller's
+    # Wall time from here: Initialize runs initialization events (a planning controller's
     # first plan), which belong to the simulation's cost, not the build's.
     built = time.perf_counter()
-    status = "ok"
+    status, warnings = "ok", []
     try:
         simulator.Initialize()
-        simulator.AdvanceTo(scenario.duration_s)
+        end_s = _end_time_s(scenario, handles, simulator.get_context(), warnings)
+        simulator.AdvanceTo(end_s)
     except RuntimeError as error:
         status = f"failed: {str(error).splitlines()[0]}"
     finished = time.perf_counter()
@@ -524,48 +444,20 @@ def simulate(scenario: Scenario, meshcat=None) -> SimulationResult:
     _sample_final_state(context, handles)
     log = _collect_log(diagram, context, handles, scenario)
     summary = {"status": status, **_summary(log, scenario)}
-    if isinstance(handles.controller, SoftCaptureController):
-        records = handles.controller.plan_records(handles.controller.GetMyContextFromRoot(context))
-        dt = scenario.controller.soft_capture.planner.dt_s
-        log.update(_plan_knots(records, dt))
-        capture = capture_outcome(log, scenario)
-        accepted = [r for r in records if r["accepted"]]
-        capture["planned_time_s"] = (
-            accepted[-1]["t_s"] + (accepted[-1]["N"] - 1) * dt if accepted else float("nan")
+    outcome = None
+    if handles.wiring is not None:
+        results = controller_seam.plugin_for(scenario.controller).results(
+            scenario, handles.wiring, context, log
         )
-        if not accepted and not capture["success"]:
-            last = records[-1] if records else {"status": "none", "reason": "no planner call"}
-            capture["reason"] = f"no plan: {last['status']}: {last['reason']}"
-        summary["capture"] = _json_safe(capture)
-        summary["plans"] = [
-            _json_safe({key: value for key, value in r.items() if key not in ("x", "u")}
-                       | {"check_violations": _json_safe(r.get("check_violations", {}))})
-            for r in records
-        ]  # fmt: skip
-        summary["planner_status"] = records[-1]["status"] if records else "none"
-        # Flat scalars for campaign reports (which summarise top-level numbers and booleans).
-        first = records[0] if records else {}
-        summary.update(_json_safe({
-            "capture_success": bool(capture["success"]),
-            "capture_time_s": capture["time_s"],
-            "capture_position_error_m": capture["position_error_m"],
-            "capture_speed_error_m_s": capture["speed_error_m_s"],
-            "initial_plan_success": bool(first.get("accepted", False)),
-            "initial_plan_N": int(first.get("N", 0)),
-            "initial_plan_scp_iterations": int(first.get("scp_iterations", 0)),
-            "initial_plan_solve_time_s": float(first.get("total_solve_time_s", 0.0)),
-            "replans_accepted": sum(1 for r in records[1:] if r["accepted"]),
-            "replans_failed": sum(1 for r in records[1:] if not r["accepted"]),
-            # The independent plan check of every plan the planner called a success (None: the
-            # initial call had no such plan).
-            "plans_checked": sum(1 for r in records if r.get("check_passed") is not None),
-            "plans_check_failed": sum(1 for r in records if r.get("check_passed") is False),
-            "initial_plan_check_passed": first.get("check_passed"),
-            "contact_after_capture": bool(capture["success"])
-            and math.isfinite(capture["contact_after_s"]),
-        }))  # fmt: skip
-        summary["planner_status_codes"] = list(PLANNER_STATUSES)
-        summary["controller_mode_codes"] = list(CONTROLLER_MODES)
+        log.update(results.log)
+        summary.update(results.summary)
+        outcome = results.outcome
+    summary["warnings"] = warnings
+    # "Did the simulation run" (status) apart from "did the mission succeed" (mission).
+    summary["mission"] = {
+        "success": None if outcome is None else bool(outcome.success),
+        "outcome": "no mission criterion (no controller)" if outcome is None else outcome.text,
+    }
     integ = simulator.get_integrator()
     summary.update(
         wall_time_s=finished - built,

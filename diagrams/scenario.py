@@ -10,11 +10,13 @@ Units are SI; a field whose name ends in `_deg` or `_deg_s` is in degrees (per s
 
 import dataclasses
 import math
+import typing
 
 import numpy as np
 
+from rpod.diagrams import controller_seam
 from rpod.models.frames import rotation_from_rpy_deg, rotation_from_wxyz
-from rpod.models.gravity import GRAVITY_MODELS, MIN_ALTITUDE_M, R_EARTH_M
+from rpod.models.gravity import GRAVITY_MODELS, MIN_ALTITUDE_M
 from rpod.models.rigid_body import validate_inertia
 from rpod.models.shapes import (
     ConvexPolytope,
@@ -22,12 +24,10 @@ from rpod.models.shapes import (
     soft_capture_chaser_hull,
     soft_capture_target_hull,
 )
-from rpod.systems.hold_point_controller import HoldPointControllerConfig
+from rpod.planners.pointing import min_rotation
 from rpod.systems.orbital_dynamics import OrbitConfig
-from rpod.systems.soft_capture_controller import SoftCaptureControllerConfig
 
 THRUSTER_LAYOUTS = ("rcs_cube_12", "planar_8", "gimbaled_cuboid_8")
-CONTROLLERS = ("hold_point", "soft_capture", "none")
 CHASER_SHAPES = ("box", "soft_capture_chaser")
 TARGET_SHAPES = ("box", "soft_capture_target")
 INTEGRATION_SCHEMES = ("runge_kutta2", "runge_kutta3", "runge_kutta5", "bogacki_shampine3")
@@ -66,6 +66,9 @@ class ChaserConfig:
         p_LC_L: initial position of the chaser's centre of mass in LVLH [m].
         v_LC_L: initial velocity seen in the rotating LVLH frame [m/s].
         rpy_LC_deg: initial attitude relative to LVLH, roll-pitch-yaw [deg].
+        point_at_target: instead of rpy_LC_deg, start with the capture axis (the direction of
+            capture_point_C) on the line of sight to the target: the least rotation from L
+            that turns it there (rpy_LC_deg must then be left at zero).
         w_IC_C_deg_s: initial angular velocity in the chaser body frame [deg/s].
         mass_kg: wet mass at t = 0 (the truth draws propellant from it).
         inertia_kg_m2: inertia about the centre of mass in C (constant) [kg m^2].
@@ -80,6 +83,7 @@ class ChaserConfig:
     p_LC_L: list[float] = dataclasses.field(default_factory=lambda: [0.0, -30.0, 0.0])
     v_LC_L: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.0])
     rpy_LC_deg: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    point_at_target: bool = False
     w_IC_C_deg_s: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.0])
     mass_kg: float = 500.0
     inertia_kg_m2: list[list[float]] = dataclasses.field(default_factory=_diag([190, 190, 190]))
@@ -104,6 +108,10 @@ class TargetConfig:
         docking_port_T: the target's capture point in T [m].
         docking_axis_T: the docking axis in T (normalised on use).
         corridor_half_angle_deg: half-angle of the approach corridor about the docking axis.
+        corridor_length_m: extent of the approach corridor from the docking port [m]: the
+            summary's corridor violation counts only the samples whose capture point is within
+            it (a chaser starting outside the corridor is not violating it), and the scene
+            draws it this long.
         shape: the true geometry, for the separation check, the scene and a soft-capture
             planner: 'box' (size_m) or 'soft_capture_target' (paper 000's pentagonal prism,
             rpod.models.shapes.soft_capture_target_hull; size_m is then unused).
@@ -119,6 +127,7 @@ class TargetConfig:
     docking_port_T: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 1.0])
     docking_axis_T: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 1.0])
     corridor_half_angle_deg: float = 30.0
+    corridor_length_m: float = 20.0
     shape: str = "box"
 
 
@@ -148,37 +157,6 @@ class ThrustersConfig:
 
 
 @dataclasses.dataclass
-class ControllerConfig:
-    """Which controller flies the chaser.
-
-    Args:
-        type: 'hold_point' (track the hold point on the docking axis), 'soft_capture' (plan
-            and fly paper 000's soft capture) or 'none' (coast).
-        hold_point: gains and geometry of the hold-point law.
-        soft_capture: the soft-capture planner's data (Table I) and closed-loop settings.
-            Its planner must agree with the scenario: semi_major_axis_m with the orbit,
-            chaser_mass_kg with the chaser, p_CDc_C with chaser.capture_point_C, p_TDt_T with
-            target.docking_port_T and docking_axis_T, docking_half_angle_deg with
-            target.corridor_half_angle_deg. A tumble faster than the method's limit is not
-            a config error: the planner reports it at run time and the controller falls back.
-    """
-
-    type: str = "hold_point"
-    hold_point: HoldPointControllerConfig = dataclasses.field(
-        default_factory=HoldPointControllerConfig
-    )
-    soft_capture: SoftCaptureControllerConfig = dataclasses.field(
-        default_factory=SoftCaptureControllerConfig
-    )
-
-    def control_period_s(self) -> float:
-        """The sample period of the active controller (the PWM period)."""
-        if self.type == "soft_capture":
-            return self.soft_capture.control_period_s
-        return self.hold_point.control_period_s
-
-
-@dataclasses.dataclass
 class IntegratorConfig:
     """Numerical integration of the continuous truth.
 
@@ -203,7 +181,6 @@ class VisualizationConfig:
         trail: draw the chaser's trail.
         trail_max_points: trail markers kept (older ones are reused).
         camera_position_L_m: camera position in LVLH, looking at the target [m].
-        corridor_length_m: length of the drawn approach corridor (docking cone) [m].
     """
 
     publish_period_s: float = 0.5
@@ -212,7 +189,22 @@ class VisualizationConfig:
     camera_position_L_m: list[float] = dataclasses.field(
         default_factory=lambda: [25.0, -40.0, 18.0]
     )
-    corridor_length_m: float = 20.0
+
+
+@dataclasses.dataclass
+class StopConfig:
+    """Ending a run before duration_s, on the controller's terms.
+
+    Args:
+        at_plan_end: end the run at the controller's planned end (a soft capture's final knot;
+            the plug-in says, rpod.diagrams.controller_seam) plus hold_s, if that is before
+            duration_s, which stays the upper bound. A controller with no plan runs to
+            duration_s.
+        hold_s: simulated time kept after the planned end (to see the capture held) [s].
+    """
+
+    at_plan_end: bool = False
+    hold_s: float = 10.0
 
 
 @dataclasses.dataclass
@@ -225,8 +217,11 @@ class Scenario:
         chaser: the chaser and its initial relative state.
         target: the tumbling target.
         thrusters: the chaser's thrusters and PWM.
-        controller: the guidance/control law.
-        duration_s: simulated time [s].
+        controller: the guidance/control law, chosen by YAML tag among the registered
+            plug-ins (rpod.diagrams.controller_seam): `!HoldPoint {...}` (the default),
+            `!SoftCapture {...}`, ...; `null` coasts (no controller).
+        duration_s: simulated time [s]; with stop.at_plan_end, the most simulated time.
+        stop: ending the run at the controller's planned end (stop.at_plan_end).
         log_period_s: sample period of every logged signal [s].
         integrator: numerical integration settings.
         visualization: Meshcat scene and recording settings.
@@ -237,11 +232,25 @@ class Scenario:
     chaser: ChaserConfig = dataclasses.field(default_factory=ChaserConfig)
     target: TargetConfig = dataclasses.field(default_factory=TargetConfig)
     thrusters: ThrustersConfig = dataclasses.field(default_factory=ThrustersConfig)
-    controller: ControllerConfig = dataclasses.field(default_factory=ControllerConfig)
+    # The annotation is the union of the registered controller configs (and None), kept up to
+    # date by _refresh_controller_union as plug-ins register.
+    controller: typing.Any = dataclasses.field(default_factory=controller_seam.default_config)
     duration_s: float = 600.0
+    stop: StopConfig = dataclasses.field(default_factory=StopConfig)
     log_period_s: float = 1.0
     integrator: IntegratorConfig = dataclasses.field(default_factory=IntegratorConfig)
     visualization: VisualizationConfig = dataclasses.field(default_factory=VisualizationConfig)
+
+
+def _refresh_controller_union() -> None:
+    """Scenario.controller's type: the union of the registered controller configs and None
+    (what pydrake's yaml_load_typed and yaml_dump_typed read, and the tag checks)."""
+    union = typing.Union[(*controller_seam.config_types(), type(None))]
+    Scenario.__dataclass_fields__["controller"].type = union
+    Scenario.__annotations__["controller"] = union
+
+
+controller_seam.on_registry_change(_refresh_controller_union)
 
 
 def body_polytopes(scenario: Scenario) -> tuple[ConvexPolytope, ConvexPolytope]:
@@ -269,6 +278,17 @@ def target_rotation_in_lvlh(scenario: Scenario) -> np.ndarray:
     return rotation_from_rpy_deg(target.rpy_LT_deg or [0.0, 0.0, 0.0])
 
 
+def chaser_rotation_in_lvlh(scenario: Scenario) -> np.ndarray:
+    """R_LC at t = 0: from rpy_LC_deg, or with point_at_target the least rotation that puts the
+    capture axis on the line of sight (-p_LC_L)."""
+    chaser = scenario.chaser
+    if not chaser.point_at_target:
+        return rotation_from_rpy_deg(chaser.rpy_LC_deg)
+    p = np.asarray(chaser.p_LC_L, float)
+    c = np.asarray(chaser.capture_point_C, float)
+    return min_rotation(c / np.linalg.norm(c), -p / np.linalg.norm(p))
+
+
 def starts_in_contact(scenario: Scenario) -> bool:
     """True when the chaser's and the target's true shapes touch or overlap at t = 0.
 
@@ -286,7 +306,7 @@ def starts_in_contact(scenario: Scenario) -> bool:
         target_rotation_in_lvlh(scenario),
         np.zeros(3),
         chaser_shape,
-        rotation_from_rpy_deg(scenario.chaser.rpy_LC_deg),
+        chaser_rotation_in_lvlh(scenario),
         np.asarray(scenario.chaser.p_LC_L, float),
     )
     return distance <= 0.0
@@ -329,56 +349,6 @@ def _rigid_body(config, prefix: str, shapes: tuple[str, ...]) -> None:
     _require(bool(np.all(size > 0)), f"{prefix}.size_m", "edge lengths must be positive")
 
 
-def _same_vector(values, expected, field: str, what: str) -> None:
-    difference = np.asarray(values, float) - np.asarray(expected, float)
-    _require(
-        bool(np.all(np.abs(difference) <= 1e-9)),
-        field,
-        f"must equal {what} = {list(map(float, expected))}, got {list(map(float, values))}",
-    )
-
-
-def _validate_soft_capture(scenario: Scenario) -> None:
-    """Checks the soft-capture block and its agreement with the rest of the scenario."""
-    config = scenario.controller.soft_capture
-    prefix = "controller.soft_capture."
-    try:
-        config.validate()
-    except ValueError as error:
-        field, _, message = str(error).partition(": ")
-        raise ScenarioError(prefix + field, message) from None
-    planner = config.planner
-    orbit = scenario.orbit
-    _require(orbit.gravity != "free_space", "orbit.gravity",
-             "the soft-capture planner needs an orbit (CW model): not free_space")  # fmt: skip
-    a = R_EARTH_M + orbit.altitude_m
-    _require(
-        abs(planner.semi_major_axis_m - a) <= 1.0,
-        prefix + "planner.semi_major_axis_m",
-        f"must equal R_earth + orbit.altitude_m = {a:.1f} m (the planner's CW model is about "
-        f"the scenario's orbit), got {planner.semi_major_axis_m}",
-    )
-    chaser, target = scenario.chaser, scenario.target
-    _require(
-        abs(planner.chaser_mass_kg - chaser.mass_kg) <= 1e-9 * chaser.mass_kg,
-        prefix + "planner.chaser_mass_kg",
-        f"must equal chaser.mass_kg = {chaser.mass_kg}, got {planner.chaser_mass_kg}",
-    )
-    _same_vector(chaser.capture_point_C, planner.p_CDc_C, "chaser.capture_point_C",
-                 prefix + "planner.p_CDc_C")  # fmt: skip
-    _same_vector(target.docking_port_T, planner.p_TDt_T, "target.docking_port_T",
-                 prefix + "planner.p_TDt_T")  # fmt: skip
-    D_t = np.asarray(planner.p_TDt_T, float)
-    axis = np.asarray(target.docking_axis_T, float)
-    _same_vector(axis / np.linalg.norm(axis), D_t / np.linalg.norm(D_t), "target.docking_axis_T",
-                 "the direction of " + prefix + "planner.p_TDt_T")  # fmt: skip
-    _require(
-        abs(target.corridor_half_angle_deg - planner.docking_half_angle_deg) <= 1e-9,
-        "target.corridor_half_angle_deg",
-        f"must equal {prefix}planner.docking_half_angle_deg = {planner.docking_half_angle_deg}",
-    )
-
-
 def _at_most(value: float, limit: float, field: str, what: str = "") -> None:
     _require(value <= limit, field, f"{what or 'must be'} at most {limit:g}, got {value:g}")
 
@@ -411,11 +381,12 @@ def _validate_work(scenario: Scenario) -> None:
     )
     _at_most(scenario.visualization.trail_max_points, MAX_SAMPLES, "visualization.trail_max_points")
     thrusters, controller = scenario.thrusters, scenario.controller
-    if controller.type != "none":
+    period = getattr(controller, "control_period_s", None)
+    if controller is not None and period:
         slots = thrusters.subdivisions if thrusters.enabled and thrusters.pwm else 1
-        field = f"controller.{controller.type}.control_period_s"
+        field = "controller.control_period_s"
         _at_most(
-            duration / controller.control_period_s() * slots,
+            duration / period * slots,
             MAX_EVENTS,
             field,
             "duration_s / control_period_s x PWM subdivisions must be",
@@ -445,6 +416,22 @@ def validate_scenario(scenario: Scenario) -> None:
         _vector(chaser.v_LC_L, "chaser.v_LC_L"), MAX_RELATIVE_SPEED_M_S, "chaser.v_LC_L", "m/s"
     )
     _vector(chaser.rpy_LC_deg, "chaser.rpy_LC_deg")
+    if chaser.point_at_target:
+        _require(
+            not any(chaser.rpy_LC_deg),
+            "chaser.point_at_target",
+            "the attitude is given twice: point_at_target and a non-zero rpy_LC_deg",
+        )
+        _require(
+            float(np.linalg.norm(chaser.capture_point_C)) > 1e-9,
+            "chaser.point_at_target",
+            "capture_point_C is at the centre of mass: there is no capture axis to point",
+        )
+        _require(
+            float(np.linalg.norm(chaser.p_LC_L)) > 1e-9,
+            "chaser.point_at_target",
+            "the chaser starts at the target's centre: there is no line of sight",
+        )
     _norm_at_most(
         _vector(chaser.w_IC_C_deg_s, "chaser.w_IC_C_deg_s"),
         MAX_SPIN_DEG_S,
@@ -514,34 +501,23 @@ def validate_scenario(scenario: Scenario) -> None:
         )
 
     controller = scenario.controller
-    _require(controller.type in CONTROLLERS, "controller.type", f"must be one of {CONTROLLERS}")
-    if controller.type == "hold_point":
+    if controller is not None:
+        plugin = controller_seam.plugin_for(controller)  # KeyError: a programming error
+        plugin.validate(controller, scenario)
+        period = getattr(controller, "control_period_s", None)
         _require(
-            thrusters.enabled, "thrusters.enabled", "the hold_point controller needs thrusters"
+            period is not None and math.isfinite(period) and period > 0,
+            "controller.control_period_s",
+            f"must be positive, got {period}",
         )
-        gains = controller.hold_point
-        prefix = "controller.hold_point."
-        for name in (
-            "control_period_s",
-            "translation_bandwidth_rad_s",
-            "translation_damping",
-            "max_speed_m_s",
-            "attitude_bandwidth_rad_s",
-            "attitude_damping",
-            "descent_gate_deg",
-            "max_reference_step_deg",
-        ):
-            _positive(getattr(gains, name), prefix + name)
-        _require(gains.hold_distance_m >= 0, prefix + "hold_distance_m", "must not be negative")
-        _vector(gains.capture_axis_C, prefix + "capture_axis_C", nonzero=True)
-    if controller.type == "soft_capture":
-        _require(
-            thrusters.enabled, "thrusters.enabled", "the soft_capture controller needs thrusters"
-        )
-        _validate_soft_capture(scenario)
 
     _positive(scenario.duration_s, "duration_s")
     _positive(scenario.log_period_s, "log_period_s")
+    _require(
+        math.isfinite(scenario.stop.hold_s) and scenario.stop.hold_s >= 0,
+        "stop.hold_s",
+        f"must not be negative, got {scenario.stop.hold_s}",
+    )
     integrator = scenario.integrator
     _require(
         integrator.scheme in INTEGRATION_SCHEMES,
@@ -551,7 +527,7 @@ def validate_scenario(scenario: Scenario) -> None:
     _positive(integrator.accuracy, "integrator.accuracy")
     _positive(integrator.max_step_s, "integrator.max_step_s")
     _positive(scenario.visualization.publish_period_s, "visualization.publish_period_s")
-    _positive(scenario.visualization.corridor_length_m, "visualization.corridor_length_m")
+    _positive(scenario.target.corridor_length_m, "target.corridor_length_m")
     _require(
         scenario.visualization.trail_max_points >= 1,
         "visualization.trail_max_points",

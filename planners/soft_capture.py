@@ -34,7 +34,7 @@ frame, ``n_orbit`` the LVLH rate the prediction was made with.
 """
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 from pydrake.math import RotationMatrix
@@ -53,12 +53,11 @@ _R_Y_PI = np.diag([-1.0, 1.0, -1.0])  # Q_y(180 deg): the capture pose relative 
 
 
 @dataclass
-class SoftCaptureConfig:
-    """Paper 000's soft-capture problem data (Table I defaults) and the search settings.
+class SoftCaptureSettings:
+    """How paper 000's soft capture is solved: Table I's weights, bounds and tolerances and the
+    horizon search (the method, apart from the problem data of `SoftCaptureConfig`).
 
     Attributes:
-        semi_major_axis_m: a, semi-major axis of the target's circular orbit [m]; n = sqrt(mu/a^3).
-        chaser_mass_kg: m_c, chaser mass [kg] (force / m = the CW input acceleration).
         fuel_weight_gamma: gamma, weight of the L1 fuel term in Problem 3.
         problem2_fuel_weight: Weight of the L1 fuel term in Problem 2: 1 as the paper's
             Problem 2 is printed; the authors' public code uses gamma in both problems.
@@ -70,12 +69,7 @@ class SoftCaptureConfig:
         capture_position_tol_m: eps_p, terminal position tolerance (13) [m].
         capture_speed_tol_m_s: eps_v, terminal velocity tolerance (14) [m/s].
         docking_knots: N_dock, number of final knots inside the docking cone (11).
-        docking_half_angle_deg: theta_dock, half-angle of the docking cone (11) [deg].
         alpha_min: Soft collision margin asked of the linearised rows (25); the hard test is 1.
-        p_CDc_C: D_c, chaser capture point from the chaser centre of mass, in C [m]; its
-            direction is the capture axis that the pointing law turns toward the target.
-        p_TDt_T: D_t, target capture point from the target centre of mass, in T [m]; its
-            direction is the docking-cone axis.
         max_scp_iterations: i_max, most Problem 3 solves per horizon.
         dt_s: dt, knot spacing [s].
         min_knots: N_min of the horizon search (Sec. VI-B).
@@ -87,8 +81,6 @@ class SoftCaptureConfig:
             tumble rate exceeds min(omega_max, v_max / |D_c + D_t|) (Sec. VI-B's envelope).
     """
 
-    semi_major_axis_m: float = 7738e3
-    chaser_mass_kg: float = 1500.0
     fuel_weight_gamma: float = 5.0
     problem2_fuel_weight: float = 1.0
     slack_penalty_psi: float = 750.0
@@ -99,10 +91,7 @@ class SoftCaptureConfig:
     capture_position_tol_m: float = 0.35
     capture_speed_tol_m_s: float = 0.03
     docking_knots: int = 5
-    docking_half_angle_deg: float = 30.0
     alpha_min: float = 1.3
-    p_CDc_C: list[float] = field(default_factory=lambda: [0.0, 0.0, 2.7])
-    p_TDt_T: list[float] = field(default_factory=lambda: [0.0, 0.0, 2.7])
     max_scp_iterations: int = 15
     dt_s: float = 1.0
     min_knots: int = 40
@@ -110,6 +99,89 @@ class SoftCaptureConfig:
     horizon_step: int = 10
     terminal_velocity_point: str = "chaser_capture_point"
     check_tumble_limit: bool = True
+
+    def horizon_grid(self) -> list[int]:
+        """The N values the search tries, in order."""
+        grid = list(range(self.min_knots, self.max_knots + 1, self.horizon_step))
+        if grid[-1] != self.max_knots:
+            grid.append(self.max_knots)
+        return grid
+
+    def validate(self) -> None:
+        """Raises ValueError naming the first bad field."""
+        positive = (
+            "max_thrust_N", "max_range_m", "max_speed_m_s", "max_los_rate_rad_s",
+            "capture_position_tol_m", "capture_speed_tol_m_s", "dt_s", "slack_penalty_psi",
+            "fuel_weight_gamma", "problem2_fuel_weight",
+        )  # fmt: skip
+        for name in positive:
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ValueError(f"{name}: must be a finite positive number, got {value!r}")
+        if not 0.0 < self.max_los_rate_rad_s * self.dt_s <= math.pi / 2:
+            raise ValueError("max_los_rate_rad_s: omega_max dt must lie in (0, pi/2]")
+        if not self.alpha_min > 1.0:
+            raise ValueError(f"alpha_min: must exceed 1, got {self.alpha_min}")
+        for name in ("docking_knots", "max_scp_iterations", "min_knots", "horizon_step"):
+            if int(getattr(self, name)) != getattr(self, name) or getattr(self, name) < 0:
+                raise ValueError(f"{name}: must be a non-negative integer")
+        if not 2 <= self.min_knots <= self.max_knots:
+            raise ValueError("min_knots, max_knots: need 2 <= min_knots <= max_knots")
+        if self.horizon_step < 1:
+            raise ValueError("horizon_step: must be >= 1")
+        if self.terminal_velocity_point not in TERMINAL_VELOCITY_POINTS:
+            raise ValueError(
+                f"terminal_velocity_point: must be one of {TERMINAL_VELOCITY_POINTS}, "
+                f"got {self.terminal_velocity_point!r}"
+            )
+
+
+@dataclass
+class SoftCaptureConfig(SoftCaptureSettings):
+    """What the planner consumes: the problem data (Table I defaults) and the settings.
+
+    In a scenario the problem data are never written: rpod's soft-capture plug-in derives them
+    from `orbit`, `chaser` and `target` (`from_settings`); the defaults here are Table I's,
+    for the planner on its own.
+
+    Attributes:
+        semi_major_axis_m: a, semi-major axis of the target's circular orbit [m]; n = sqrt(mu/a^3).
+        chaser_mass_kg: m_c, chaser mass [kg] (force / m = the CW input acceleration).
+        docking_half_angle_deg: theta_dock, half-angle of the docking cone (11) [deg].
+        p_CDc_C: D_c, chaser capture point from the chaser centre of mass, in C [m]; its
+            direction is the capture axis that the pointing law turns toward the target.
+        p_TDt_T: D_t, target capture point from the target centre of mass, in T [m]; its
+            direction is the docking-cone axis.
+        (the rest: SoftCaptureSettings)
+    """
+
+    semi_major_axis_m: float = 7738e3
+    chaser_mass_kg: float = 1500.0
+    docking_half_angle_deg: float = 30.0
+    p_CDc_C: list[float] = field(default_factory=lambda: [0.0, 0.0, 2.7])
+    p_TDt_T: list[float] = field(default_factory=lambda: [0.0, 0.0, 2.7])
+
+    @classmethod
+    def from_settings(
+        cls,
+        settings: SoftCaptureSettings,
+        *,
+        semi_major_axis_m: float,
+        chaser_mass_kg: float,
+        docking_half_angle_deg: float,
+        p_CDc_C,
+        p_TDt_T,
+    ) -> "SoftCaptureConfig":
+        """The settings with the problem data of one scenario."""
+        values = {f.name: getattr(settings, f.name) for f in fields(SoftCaptureSettings)}
+        return cls(
+            **values,
+            semi_major_axis_m=float(semi_major_axis_m),
+            chaser_mass_kg=float(chaser_mass_kg),
+            docking_half_angle_deg=float(docking_half_angle_deg),
+            p_CDc_C=[float(v) for v in p_CDc_C],
+            p_TDt_T=[float(v) for v in p_TDt_T],
+        )
 
     @property
     def mean_motion(self) -> float:
@@ -121,13 +193,6 @@ class SoftCaptureConfig:
         """min(omega_max, v_max / |D_c + D_t|): the paper's applicability limit (Sec. VI-B)."""
         reach = np.linalg.norm(np.asarray(self.p_TDt_T) - _R_Y_PI @ np.asarray(self.p_CDc_C))
         return min(self.max_los_rate_rad_s, self.max_speed_m_s / reach)
-
-    def horizon_grid(self) -> list[int]:
-        """The N values the search tries, in order."""
-        grid = list(range(self.min_knots, self.max_knots + 1, self.horizon_step))
-        if grid[-1] != self.max_knots:
-            grid.append(self.max_knots)
-        return grid
 
     def symbols(self) -> dict:
         """Table I parameters under their paper symbols (for plan files and reports)."""
@@ -152,39 +217,18 @@ class SoftCaptureConfig:
         }
 
     def validate(self) -> None:
-        """Raises ValueError naming the first bad field."""
-        positive = (
-            "semi_major_axis_m", "chaser_mass_kg", "max_thrust_N", "max_range_m",
-            "max_speed_m_s", "max_los_rate_rad_s", "capture_position_tol_m",
-            "capture_speed_tol_m_s", "dt_s", "slack_penalty_psi", "fuel_weight_gamma",
-            "problem2_fuel_weight",
-        )  # fmt: skip
-        for name in positive:
+        """Raises ValueError naming the first bad field (problem data, then settings)."""
+        for name in ("semi_major_axis_m", "chaser_mass_kg"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ValueError(f"{name}: must be a finite positive number, got {value!r}")
-        if not 0.0 < self.max_los_rate_rad_s * self.dt_s <= math.pi / 2:
-            raise ValueError("max_los_rate_rad_s: omega_max dt must lie in (0, pi/2]")
         if not 0.0 < self.docking_half_angle_deg < 90.0:
             raise ValueError("docking_half_angle_deg: must lie in (0, 90)")
-        if not self.alpha_min > 1.0:
-            raise ValueError(f"alpha_min: must exceed 1, got {self.alpha_min}")
         for name in ("p_CDc_C", "p_TDt_T"):
             vector = np.asarray(getattr(self, name), dtype=float)
             if vector.shape != (3,) or not np.all(np.isfinite(vector)) or not vector.any():
                 raise ValueError(f"{name}: must be 3 finite numbers, not all zero")
-        for name in ("docking_knots", "max_scp_iterations", "min_knots", "horizon_step"):
-            if int(getattr(self, name)) != getattr(self, name) or getattr(self, name) < 0:
-                raise ValueError(f"{name}: must be a non-negative integer")
-        if not 2 <= self.min_knots <= self.max_knots:
-            raise ValueError("min_knots, max_knots: need 2 <= min_knots <= max_knots")
-        if self.horizon_step < 1:
-            raise ValueError("horizon_step: must be >= 1")
-        if self.terminal_velocity_point not in TERMINAL_VELOCITY_POINTS:
-            raise ValueError(
-                f"terminal_velocity_point: must be one of {TERMINAL_VELOCITY_POINTS}, "
-                f"got {self.terminal_velocity_point!r}"
-            )
+        super().validate()
 
 
 @dataclass

@@ -43,6 +43,7 @@ import dataclasses
 import hashlib
 import itertools
 import json
+import math
 import pathlib
 import re
 import typing
@@ -58,6 +59,7 @@ from rpod.scenarios.loader import (
     ScenarioFileError,
     _check,
     load_scenario,
+    quote,
     read_yaml,
 )
 
@@ -65,6 +67,9 @@ CAMPAIGNS_DIR = BUNDLED_DIR / "campaigns"
 TOP_LEVEL_KEYS = ("description", "base", "overrides", "timeout_s", "grid", "cases", "sample")
 SAMPLE_KEYS = ("count", "seed", "fields", "passively_safe")
 _TOKEN = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*)((?:\[\d+\])*)$")
+# Most runs one campaign may plan (cases x grid points x samples), refused at load before
+# anything is built: the plan holds every run in memory, and a million runs take minutes to plan.
+MAX_RUNS = 1_000_000
 
 
 # ---------------------------------------------------------------------------------------------
@@ -79,21 +84,41 @@ def _tokens(path: str) -> list[tuple[str, list[int]]]:
     for part in path.split("."):
         match = _TOKEN.match(part)
         if not match:
-            raise ScenarioError(path, f"malformed field path (at {part!r})")
+            raise ScenarioError(path, f"malformed field path (at {quote(part)})")
         tokens.append((match.group(1), [int(i) for i in re.findall(r"\d+", match.group(2))]))
     return tokens
+
+
+def _union_choice(annotation, rest: list[str], path: str, walked: str):
+    """The choice of a typed union (Scenario.controller) that a path continues into.
+
+    Resolved by the field named next: the first choice that has it (the registered controller
+    configs; e.g. `controller.hold_distance_m` is !HoldPoint's). Whether the scenario's actual
+    controller has it is checked where the value is set (apply_overrides).
+    """
+    choices = [a for a in typing.get_args(annotation) if dataclasses.is_dataclass(a)]
+    for choice in choices:
+        if rest[0] in typing.get_type_hints(choice):
+            return choice
+    known = ", ".join(f"!{c.__name__}" for c in choices)
+    raise ScenarioError(path, f"no controller ({known}) has a field {quote(rest[0])} in {walked}")
 
 
 def field_annotation(path: str):
     """The schema type of a dotted Scenario path; ScenarioError(path, ...) if there is none."""
     annotation, walked = Scenario, ""
-    for name, indices in _tokens(path):
+    tokens = _tokens(path)
+    for position, (name, indices) in enumerate(tokens):
+        if typing.get_origin(annotation) is typing.Union:
+            annotation = _union_choice(annotation, [n for n, _ in tokens[position:]], path, walked)
         if not dataclasses.is_dataclass(annotation):
-            raise ScenarioError(path, f"{walked} is a value, it has no field {name!r}")
+            raise ScenarioError(path, f"{walked} is a value, it has no field {quote(name)}")
         hints = typing.get_type_hints(annotation)
         if name not in hints:
             where = f" of {walked}" if walked else ""
-            raise ScenarioError(path, f"unknown field {name!r}{where} (known: {', '.join(hints)})")
+            raise ScenarioError(
+                path, f"unknown field {quote(name)}{where} (known: {', '.join(hints)})"
+            )
         annotation = hints[name]
         walked = f"{walked}.{name}" if walked else name
         for index in indices:
@@ -126,7 +151,7 @@ def flatten_overrides(mapping, location: str, prefix: str = "") -> dict:
     """{'chaser': {'mass_kg': 1}} or {'chaser.mass_kg': 1} -> {'chaser.mass_kg': 1}, checked."""
     if not isinstance(mapping, dict):
         raise ScenarioError(
-            location, f"expected a mapping of field paths to values, got {mapping!r}"
+            location, f"expected a mapping of field paths to values, got {quote(mapping)}"
         )
     flat = {}
     for key, value in mapping.items():
@@ -144,6 +169,14 @@ def flatten_overrides(mapping, location: str, prefix: str = "") -> dict:
     return flat
 
 
+def _require_field(node, name: str, path: str, walked: str) -> None:
+    """ScenarioError unless the dataclass instance has the field: a typed union (the
+    controller) whose actual choice lacks a field that another choice has."""
+    if not dataclasses.is_dataclass(node) or name not in {f.name for f in dataclasses.fields(node)}:
+        what = "null" if node is None else f"!{type(node).__name__}"
+        raise ScenarioError(path, f"{walked} is {what}, which has no field {quote(name)}")
+
+
 def apply_overrides(scenario: Scenario, overrides: dict) -> Scenario:
     """A copy of scenario with each dotted path set; ScenarioError(path, ...) on a bad one.
 
@@ -155,12 +188,15 @@ def apply_overrides(scenario: Scenario, overrides: dict) -> Scenario:
         annotation = field_annotation(path)
         _check(value, annotation, path)
         tokens = _tokens(path)
-        parent = scenario
+        parent, walked = scenario, ""
         for name, indices in tokens[:-1]:
+            _require_field(parent, name, path, walked)
             parent = getattr(parent, name)
+            walked = f"{walked}.{name}" if walked else name
             for index in indices:
                 parent = parent[index]
         name, indices = tokens[-1]
+        _require_field(parent, name, path, walked)
         if not indices:
             setattr(parent, name, _coerce(value, annotation))
             continue
@@ -264,7 +300,7 @@ def _error(source: str, error: ScenarioError) -> ScenarioFileError:
 
 def _require_int(value, location: str, minimum: int) -> int:
     if not isinstance(value, int) or isinstance(value, bool) or value < minimum:
-        raise ScenarioError(location, f"expected an integer >= {minimum}, got {value!r}")
+        raise ScenarioError(location, f"expected an integer >= {minimum}, got {quote(value)}")
     return value
 
 
@@ -277,17 +313,24 @@ def _parse_grid(data) -> dict:
     for path, values in data.items():
         location = f"grid.{path}"
         try:
-            field_annotation(path)
+            annotation = field_annotation(path)
         except ScenarioError as error:
             raise ScenarioError(location, error.message) from None
         if not isinstance(values, list) or not values:
             raise ScenarioError(
-                location, f"empty grid: expected a non-empty list of values, got {values!r}"
+                location, f"empty grid: expected a non-empty list of values, got {quote(values)}"
             )
+        if dataclasses.is_dataclass(annotation):
+            raise ScenarioError(location, f"{path} is a group of fields; name one of its fields")
+        seen = {}  # canonical JSON of each value as the field holds it (1 and 1.0 are one value)
         for index, value in enumerate(values):
-            check_value(path, value, f"{location}[{index}]")
-            if value in values[:index]:
-                raise ScenarioError(f"{location}[{index}]", f"{value!r} is listed twice")
+            _check(value, annotation, f"{location}[{index}]")
+            key = json.dumps(_coerce(value, annotation), sort_keys=True)
+            if key in seen:
+                raise ScenarioError(
+                    f"{location}[{index}]", f"{quote(value)} is listed twice (also [{seen[key]}])"
+                )
+            seen[key] = index
         grid[str(path)] = values
     return grid
 
@@ -306,7 +349,7 @@ def _parse_cases(data) -> list:
         name = case.get("name", f"case{index}")
         if not isinstance(name, str) or not name or name in names:
             raise ScenarioError(
-                f"{location}.name", f"expected a unique non-empty name, got {name!r}"
+                f"{location}.name", f"expected a unique non-empty name, got {quote(name)}"
             )
         names.add(name)
         overrides = flatten_overrides(case.get("overrides", {}), f"{location}.overrides")
@@ -352,6 +395,23 @@ def _parse_sample(data) -> SampleBlock:
     return SampleBlock(count, seed, fields, passively_safe)
 
 
+def _check_run_count(grid: dict, cases: list, sample: SampleBlock | None) -> None:
+    """ScenarioError above MAX_RUNS runs, counted from the sizes before anything is built."""
+    factors = {
+        "cases": len(cases) or 1,
+        "grid": math.prod(len(values) for values in grid.values()),
+        "sample.count": sample.count if sample else 1,
+    }
+    total = math.prod(factors.values())
+    if total > MAX_RUNS:
+        sizes = " x ".join(f"{n:,}" for n in factors.values())
+        raise ScenarioError(
+            max(factors, key=factors.get),
+            f"{total:,} runs planned (cases x grid points x samples = {sizes}), above the "
+            f"limit of {MAX_RUNS:,}",
+        )
+
+
 def _check_no_conflicts(grid: dict, cases: list, sample: SampleBlock | None) -> None:
     """Grid, sample and cases must not set the same field (which one would win is unclear)."""
     setters = [(f"grid.{p}", p) for p in grid]
@@ -389,10 +449,11 @@ def parse_campaign(text: str, source: str, name: str, base_dir: pathlib.Path) ->
         if timeout_s is not None and (
             isinstance(timeout_s, bool)
             or not isinstance(timeout_s, (int, float))
-            or not timeout_s > 0
+            or not 0 < timeout_s < math.inf
         ):
             raise ScenarioError(
-                "timeout_s", f"expected a positive number of seconds, got {timeout_s!r}"
+                "timeout_s",
+                f"expected a positive, finite number of seconds, got {quote(timeout_s)}",
             )
         overrides = flatten_overrides(data.get("overrides", {}), "overrides")
         grid = _parse_grid(data["grid"]) if "grid" in data else {}
@@ -400,6 +461,7 @@ def parse_campaign(text: str, source: str, name: str, base_dir: pathlib.Path) ->
         sample = _parse_sample(data["sample"]) if "sample" in data else None
         if not grid and not cases and sample is None:
             raise ScenarioError("(top level)", "nothing to vary: give grid, cases or sample")
+        _check_run_count(grid, cases, sample)
         _check_no_conflicts(grid, cases, sample)
     except ScenarioError as error:
         raise _error(source, error) from None

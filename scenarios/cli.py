@@ -2,10 +2,13 @@
 
 Commands: `rpod run SCENARIO`, `rpod sweep CAMPAIGN`, `rpod report RESULTS`, `rpod list`.
 
-Exit status: 0 on success; 1 when a simulation ran but failed (its outputs are written and its
-summary says why; for `sweep`: every run is recorded and some failed); 2 on a bad command line,
-file or field, with one line on stderr naming the file and field and no traceback; 130 when
-stopped by Ctrl-C (`sweep` keeps every finished run; the same command resumes).
+Exit status: 0 on success (`run`: the mission succeeded, or the scenario has no mission to
+judge); 1 when a simulation failed (its outputs are written and its summary says why; for
+`sweep`: every run is recorded and some failed; for `plan`: no plan passed the check); 2 on a
+bad command line, file or field, with one line on stderr naming the file and field and no
+traceback; 3 (`run`) when the simulation ran but the mission failed (no capture, hold point
+not reached: the line says why); 130 when stopped by Ctrl-C and 143 by SIGTERM (nothing is
+left half-written; `sweep` keeps every finished run and the same command resumes).
 """
 
 import argparse
@@ -15,17 +18,23 @@ import sys
 
 from rpod.scenarios.loader import ScenarioFileError, bundled_scenarios, load_scenario
 
+EXIT_SIMULATION_FAILED = 1
 EXIT_BAD_INPUT = 2
+EXIT_MISSION_FAILED = 3
 DEFAULT_SCENARIO = "hold_point"
+SET_HELP = (
+    "override one field, a dotted path with a YAML value (repeatable): "
+    "--set chaser.mass_kg=400 --set 'chaser.p_LC_L=[0, -40, 0]' --set controller.hold_distance_m=5"
+)
 
 
 def _description(path: pathlib.Path) -> str:
     """The `description:` of a scenario file, read without building the scenario."""
-    import yaml
+    from rpod.scenarios.yaml_reader import YamlError, parse_yaml
 
     try:
-        return str((yaml.safe_load(path.read_text()) or {}).get("description", ""))
-    except (OSError, yaml.YAMLError, AttributeError):
+        return str((parse_yaml(path.read_text()) or {}).get("description", ""))
+    except (OSError, YamlError, AttributeError):
         return "(unreadable)"
 
 
@@ -43,18 +52,60 @@ def _cmd_list(args) -> int:
     return 0
 
 
+def _load_with_sets(name_or_path: str, sets: list[str]):
+    """(name, scenario) of a scenario with the command line's `--set a.b=value` overrides.
+
+    The value is YAML (`--set chaser.mass_kg=5e2`, `--set 'chaser.p_LC_L=[0, -40, 0]'`), the
+    path a dotted Scenario field as in campaigns (rpod.scenarios.campaign.apply_overrides);
+    every error is one line naming the flag.
+    """
+    name, scenario = load_scenario(name_or_path)
+    if not sets:
+        return name, scenario
+    from rpod.diagrams.scenario import ScenarioError, validate_scenario
+    from rpod.scenarios.campaign import apply_overrides, check_value
+    from rpod.scenarios.loader import quote, read_yaml
+
+    overrides = {}
+    for item in sets:
+        path, equals, text = item.partition("=")
+        label = f"--set {quote(item)}"
+        if not equals or not path.strip():
+            raise ScenarioFileError(f"{label}: expected FIELD=VALUE, e.g. chaser.mass_kg=400")
+        value = read_yaml(text, label)
+        try:
+            check_value(path.strip(), value, path.strip())
+        except ScenarioError as error:
+            raise ScenarioFileError(f"{label}: {error.field}: {error.message}") from None
+        overrides[path.strip()] = value
+    try:
+        scenario = apply_overrides(scenario, overrides)
+        validate_scenario(scenario)
+    except ScenarioError as error:
+        raise ScenarioFileError(
+            f"{name_or_path} with --set: {error.field}: {error.message}"
+        ) from None
+    return name, scenario
+
+
 def _cmd_plan(args) -> int:
-    name, scenario = load_scenario(args.scenario)
+    name, scenario = _load_with_sets(args.scenario, args.set)
     out_dir = pathlib.Path(args.out) if args.out else pathlib.Path("runs") / f"{name}-plan"
     from rpod.scenarios.plan import plan_to_folder  # heavy imports only when planning
+    from rpod.scenarios.run import sigterm_as_interrupt
 
-    summary = plan_to_folder(name, scenario, out_dir)
-    checked = bool(summary["check"] and summary["check"]["passed"])
+    with sigterm_as_interrupt():  # SIGTERM cleans up as Ctrl-C does (exit 143)
+        summary = plan_to_folder(
+            name, scenario, out_dir, closed_loop=args.closed_loop, overwrite=args.overwrite
+        )
+    check = summary["check"]
+    verdict = "not run (no plan)" if check is None else "passed" if check["passed"] else "FAILED"
+    margins = "the closed loop's margins" if args.closed_loop else "the scenario's tolerances"
     print(
-        f"{name}: plan {summary['status']}, N = {summary.get('N')}, independent check "
-        f"{'passed' if checked else 'FAILED'} -> {out_dir}"
+        f"{name}: plan {summary['status']} with {margins}, N = {summary.get('N')}, independent "
+        f"check {verdict} -> {out_dir}"
     )
-    return 0 if summary["status"] == "success" and checked else 1
+    return 0 if summary["status"] == "success" and check and check["passed"] else 1
 
 
 def _positive_number(text: str) -> float:
@@ -80,31 +131,64 @@ def _non_negative_integer(text: str) -> int:
 
 def _cmd_sweep(args) -> int:
     from rpod.scenarios.campaign import load_campaign, plan_runs
+    from rpod.scenarios.sweep import check_workers, run_campaign  # Dask only when running
 
+    check_workers(args.workers)  # before anything is loaded or started
     campaign = load_campaign(args.campaign)
     if args.seed is not None:
         campaign = campaign.with_seed(args.seed)
     runs = plan_runs(campaign)
     out_dir = pathlib.Path(args.out) if args.out else pathlib.Path("runs") / campaign.name
-    from rpod.scenarios.sweep import run_campaign  # heavy imports only when running
-
+    if args.rerun:
+        return _rerun(campaign, runs, args.rerun, out_dir, args)
     outcome = run_campaign(
-        campaign, runs, out_dir,
-        scheduler=args.scheduler, workers=args.workers,
+        campaign,
+        runs,
+        out_dir,
+        scheduler=args.scheduler,
+        workers=args.workers,
         timeout_s=args.timeout_s if args.timeout_s is not None else campaign.timeout_s,
-        save_runs=args.save_runs, record=args.record,
+        save_runs=args.save_runs,
+        record=args.record,
+        retry_failed=args.retry_failed,
         connect_timeout_s=args.connect_timeout_s,
     )
     counts = outcome.counts
-    summary = (f"{campaign.name}: {len(runs)} runs: {counts['ok']} ok, {counts['failed']} failed, "
-               f"{counts['pending']} pending ({outcome.ran} run now) -> {outcome.store}")
+    summary = (
+        f"{campaign.name}: {len(runs)} runs: {counts['ok']} ok, {counts['failed']} failed, "
+        f"{counts['pending']} pending ({outcome.ran} run now) -> {outcome.store}"
+    )
     if outcome.interrupted or outcome.lost_scheduler:
         why = "interrupted" if outcome.interrupted else "the cluster lost runs"
-        print(f"rpod: {why}; finished runs are kept, run the same command to resume. {summary}",
-              file=sys.stderr)
+        print(
+            f"rpod: {why}; finished runs are kept, run the same command to resume. {summary}",
+            file=sys.stderr,
+        )
         return 130 if outcome.interrupted else 1
     print(summary + f"\n  rpod report {out_dir}")
     return 0 if counts["failed"] == 0 else 1
+
+
+def _rerun(campaign, runs, wanted: str, out_dir: pathlib.Path, args) -> int:
+    """`rpod sweep CAMPAIGN --rerun RUN_ID`: one case again, with every output, into
+    OUT/rerun/<run_id>/ (the store is not touched)."""
+    from rpod.scenarios.campaign import apply_overrides
+    from rpod.scenarios.run import run_to_folder, sigterm_as_interrupt
+
+    matches = [run for run in runs if run.run_id.startswith(wanted)] if wanted else []
+    if len(matches) != 1:
+        why = "matches no run" if not matches else f"matches {len(matches)} runs"
+        raise ScenarioFileError(
+            f"--rerun {wanted}: {why} of {campaign.source} ({len(runs)} runs; the ids are in "
+            f"the store: sqlite3 {out_dir / 'results.sqlite'} 'select run_id, grp from runs')"
+        )
+    (run,) = matches
+    scenario = apply_overrides(campaign.base, run.overrides)
+    target = out_dir / "rerun" / run.run_id
+    with sigterm_as_interrupt():
+        summary = run_to_folder(run.run_id, scenario, target, record=True, overwrite=False)
+    print(run_line(f"{campaign.name} {run.run_id} ({run.group})", summary, target))
+    return run_exit_status(summary)
 
 
 def _cmd_report(args) -> int:
@@ -118,26 +202,54 @@ def _cmd_report(args) -> int:
 
 
 def _cmd_run(args) -> int:
-    name, scenario = load_scenario(args.scenario)
+    name, scenario = _load_with_sets(args.scenario, args.set)
     out_dir = pathlib.Path(args.out) if args.out else pathlib.Path("runs") / name
-    from rpod.scenarios.run import run_to_folder  # heavy imports only when running
+    from rpod.scenarios.run import run_to_folder, sigterm_as_interrupt  # heavy: only to run
 
-    summary = run_to_folder(name, scenario, out_dir, record=not args.no_record)
-    hold = summary.get("hold_reached")
-    print(
-        f"{name}: {summary['status']}, {summary['sim_time_s']:.0f} s simulated in "
+    with sigterm_as_interrupt():  # SIGTERM cleans up as Ctrl-C does (exit 143)
+        summary = run_to_folder(
+            name, scenario, out_dir, record=not args.no_record, overwrite=args.overwrite
+        )
+    for warning in summary.get("warnings", []):
+        print(f"rpod: warning: {warning}", file=sys.stderr)
+    print(run_line(name, summary, out_dir))
+    return run_exit_status(summary)
+
+
+def run_line(name: str, summary: dict, out_dir) -> str:
+    """The one line `rpod run` prints: the mission outcome first, then what ran."""
+    mission = summary.get("mission") or {}
+    if summary["status"] != "ok":
+        head = f"SIMULATION {summary['status'].upper()}"
+    else:
+        head = mission.get("outcome", "ran")
+    return (
+        f"{name}: {head}; {summary['sim_time_s']:.0f} s simulated in "
         f"{summary['wall_time_s']:.1f} s ({summary['real_time_factor']:.0f}x real time), "
         f"delta-v {summary['delta_v_m_s']:.3f} m/s, min separation "
-        f"{summary['min_separation_m']:.2f} m"
-        + ("" if hold is None else f", hold point {'reached' if hold else 'NOT reached'}")
-        + f" -> {out_dir}"
+        f"{summary['min_separation_m']:.2f} m -> {out_dir}"
     )
-    return 0 if summary["status"] == "ok" else 1
+
+
+def run_exit_status(summary: dict) -> int:
+    """0 mission succeeded (or none to judge), 1 simulation failed, 3 mission failed."""
+    if summary["status"] != "ok":
+        return EXIT_SIMULATION_FAILED
+    if (summary.get("mission") or {}).get("success") is False:
+        return EXIT_MISSION_FAILED
+    return 0
+
+
+class _OneLineErrorParser(argparse.ArgumentParser):
+    """argparse, but a usage error is one stderr line (no usage block) and exit status 2."""
+
+    def error(self, message: str):
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message} (see `{self.prog} --help`)\n")
 
 
 def make_parser() -> argparse.ArgumentParser:
-    """The argument parser of the `rpod` command."""
-    parser = argparse.ArgumentParser(prog="rpod", description=__doc__.splitlines()[0])
+    """The argument parser of the `rpod` command (subcommands inherit its one-line errors)."""
+    parser = _OneLineErrorParser(prog="rpod", description=__doc__.splitlines()[0])
     commands = parser.add_subparsers(dest="command", required=True)
     run = commands.add_parser("run", help="build, simulate and write a scenario's outputs")
     run.add_argument(
@@ -148,40 +260,95 @@ def make_parser() -> argparse.ArgumentParser:
     )
     run.add_argument("--out", help="output folder (default: runs/<scenario>)")
     run.add_argument("--no-record", action="store_true", help="skip the Meshcat recording")
+    run.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE", help=SET_HELP)
+    run.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace --out even if it is a folder rpod did not write (once the run is "
+        "complete; never a file)",
+    )
     run.set_defaults(handler=_cmd_run)
     plan = commands.add_parser(
-        "plan", help="run only the scenario's planner and write the plan (soft capture)"
+        "plan", help="run only the scenario's controller's planner and write the plan"
     )
     plan.add_argument("scenario", help="a scenario file or the name of a bundled scenario")
     plan.add_argument("--out", help="output folder (default: runs/<scenario>-plan)")
+    plan.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE", help=SET_HELP)
+    plan.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace --out even if it is a folder rpod did not write (once the plan is "
+        "complete; never a file)",
+    )
+    plan.add_argument(
+        "--closed-loop",
+        action="store_true",
+        help="plan with the closed loop's margins (the first plan `rpod run` flies) instead "
+        "of the scenario's tolerances as written",
+    )
     plan.set_defaults(handler=_cmd_plan)
     sweep = commands.add_parser(
-        "sweep", help="run a campaign (grid, cases, samples); resumable",
+        "sweep",
+        help="run a campaign (grid, cases, samples); resumable",
         description="Run every run of a campaign and store the results as they finish. Run "
-                    "the same command again to resume: finished runs are not run again.")
+        "the same command again to resume: finished runs are not run again.",
+    )
     sweep.add_argument("campaign", help="a campaign file or the name of a bundled campaign")
     sweep.add_argument("--out", help="output folder (default: runs/<campaign>)")
-    sweep.add_argument("--workers", type=_positive_integer,
-                       help="local worker processes (default: one per core)")
-    sweep.add_argument("--scheduler", metavar="ADDRESS",
-                       help="use an existing Dask cluster, e.g. tcp://host:8786")
-    sweep.add_argument("--timeout-s", type=_positive_number,
-                       help="fail a run that takes longer (default: the campaign's timeout_s, "
-                            "else none)")
-    sweep.add_argument("--seed", type=_non_negative_integer,
-                       help="sampling seed (default: the campaign's sample.seed)")
-    sweep.add_argument("--save-runs", action="store_true",
-                       help="also write each run's log.npz, plots and summary to OUT/runs/<id>/")
-    sweep.add_argument("--record", action="store_true",
-                       help="also write each run's Meshcat recording (implies --save-runs)")
-    sweep.add_argument("--connect-timeout-s", type=_positive_number, default=10.0,
-                       help="how long to wait for the scheduler and a worker (default 10)")
+    sweep.add_argument(
+        "--workers",
+        type=_positive_integer,
+        help="local worker processes (default: one per core; at most 4 per core)",
+    )
+    sweep.add_argument(
+        "--scheduler", metavar="ADDRESS", help="use an existing Dask cluster, e.g. tcp://host:8786"
+    )
+    sweep.add_argument(
+        "--timeout-s",
+        type=_positive_number,
+        help="fail a run that takes longer (default: the campaign's timeout_s, else none)",
+    )
+    sweep.add_argument(
+        "--seed",
+        type=_non_negative_integer,
+        help="sampling seed (default: the campaign's sample.seed)",
+    )
+    sweep.add_argument(
+        "--save-runs",
+        action="store_true",
+        help="also write each run's log.npz, plots and summary to OUT/runs/<id>/",
+    )
+    sweep.add_argument(
+        "--record",
+        action="store_true",
+        help="also write each run's Meshcat recording (implies --save-runs)",
+    )
+    sweep.add_argument(
+        "--retry-failed",
+        action="store_true",
+        help="run the failed runs again (their failures are kept in the store's retries table)",
+    )
+    sweep.add_argument(
+        "--connect-timeout-s",
+        type=_positive_number,
+        default=10.0,
+        help="how long to wait for the scheduler and a worker (default 10)",
+    )
+    sweep.add_argument(
+        "--rerun",
+        metavar="RUN_ID",
+        help="run one stored case again (an id or a unique prefix) with every output (log, "
+        "plots, recording) into OUT/rerun/<run_id>/; the store is not changed",
+    )
     sweep.set_defaults(handler=_cmd_sweep)
     report = commands.add_parser("report", help="summarise a campaign's results, write plots")
     report.add_argument("results", help="a campaign output folder (or its results.sqlite)")
     report.add_argument("--out", help="plot folder (default: RESULTS/report)")
-    report.add_argument("--metrics", type=lambda text: [m for m in text.split(",") if m],
-                        help="comma-separated metrics to summarise (default: all numeric)")
+    report.add_argument(
+        "--metrics",
+        type=lambda text: [m for m in text.split(",") if m],
+        help="comma-separated metrics to summarise (default: all numeric)",
+    )
     report.set_defaults(handler=_cmd_report)
     listing = commands.add_parser("list", help="list bundled scenarios and campaigns")
     listing.set_defaults(handler=_cmd_list)
@@ -197,9 +364,9 @@ def main(argv=None) -> int:
     except ScenarioFileError as error:
         print(f"rpod: error: {error}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except KeyboardInterrupt:
-        print("rpod: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as interrupt:  # Ctrl-C: 130; SIGTERM (run.Terminated): 143
+        print(f"rpod: {getattr(interrupt, 'message', 'interrupted')}", file=sys.stderr)
+        return getattr(interrupt, "exit_status", 130)
 
 
 if __name__ == "__main__":

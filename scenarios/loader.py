@@ -16,11 +16,10 @@ import math
 import pathlib
 import typing
 
-import yaml
 from pydrake.common.yaml import yaml_load_typed
 
 from rpod.diagrams.scenario import Scenario, ScenarioError, validate_scenario
-from rpod.scenarios.yaml_reader import YamlError, parse_yaml
+from rpod.scenarios.yaml_reader import YamlError, dump_yaml, parse_yaml
 
 BUNDLED_DIR = pathlib.Path(__file__).resolve().parent / "bundled"
 
@@ -92,8 +91,18 @@ def resolve_scenario_path(name_or_path: str) -> pathlib.Path:
     )
 
 
+def _union_choices(annotation) -> tuple[list[type], bool]:
+    """(the dataclass choices of a Union annotation, whether None is allowed)."""
+    args = typing.get_args(annotation)
+    return [a for a in args if a is not type(None)], type(None) in args
+
+
 def _type_name(annotation) -> str:
     origin = typing.get_origin(annotation)
+    if origin is typing.Union:
+        choices, nullable = _union_choices(annotation)
+        names = [f"!{choice.__name__} {{...}}" for choice in choices] + ["null"] * nullable
+        return "one of " + ", ".join(names)
     if origin is list:
         return f"a list of {_type_name(typing.get_args(annotation)[0])}"
     if dataclasses.is_dataclass(annotation):
@@ -106,6 +115,22 @@ def _type_name(annotation) -> str:
 def _check(value, annotation, field: str) -> None:
     """Raises ScenarioError if plain YAML data does not fit the annotated dataclass field."""
     expected = _type_name(annotation)
+    if typing.get_origin(annotation) is typing.Union:  # a typed union chosen by YAML tag
+        choices, nullable = _union_choices(annotation)
+        if value is None and nullable:
+            return
+        if not isinstance(value, dict):
+            raise ScenarioError(field, f"expected {expected}, got {quote(value)}")
+        tag = getattr(value, "tag", None)
+        if tag is None:  # untagged: the first choice, as Drake's yaml_load_typed reads it
+            chosen = choices[0]
+        else:
+            chosen = next((c for c in choices if c.__name__ == tag), None)
+            if chosen is None:
+                known = ", ".join(f"!{c.__name__}" for c in choices)
+                raise ScenarioError(field, f"unknown tag !{tag} (known: {known})")
+        _check(value, chosen, field)
+        return
     if dataclasses.is_dataclass(annotation):
         if not isinstance(value, dict):
             raise ScenarioError(field or "(top level)", f"expected {expected}, got {quote(value)}")
@@ -157,7 +182,7 @@ def parse_scenario(text: str, source: str = "<string>") -> Scenario:
     try:
         _check(data, Scenario, "")
         # Drake reads the checked data, not the text: one YAML dialect (yaml_reader's) decides.
-        scenario = yaml_load_typed(schema=Scenario, data=yaml.safe_dump(data), defaults=Scenario())
+        scenario = yaml_load_typed(schema=Scenario, data=dump_yaml(data), defaults=Scenario())
         validate_scenario(scenario)
     except ScenarioError as error:
         raise ScenarioFileError(f"{source}: {error.field}: {error.message}") from None

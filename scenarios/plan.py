@@ -2,12 +2,15 @@
 
 Owns: `plan_scenario` (paper 000's planner on a scenario's initial state, no simulation) and
 `plan_to_folder`, which writes the plan so that a folder is either complete or absent (a hidden
-staging folder renamed into place, as `rpod.scenarios.run.run_to_folder` does).
+staging folder renamed into place, as `rpod.scenarios.run.run_to_folder` does), under the same
+rules for the output folder (`rpod.scenarios.run.check_out_dir`: checked before planning, and a
+folder rpod did not write is only replaced with `overwrite`).
 Does not own: the planner (rpod.planners), the plots (rpod.diagrams.plan_plots), or the command
 line (cli.py).
 
-What is planned. The scenario's `controller.soft_capture.planner` config as written (Table I
-in the bundled scenario), from the scenario's initial state: x0 = [chaser.p_LC_L,
+What is planned (today the !SoftCapture plug-in's `make_plan`,
+rpod.diagrams.controllers.soft_capture.plan_scenario). The planner's config (its settings as
+written, Table I in the bundled scenario, with the problem data derived from the scenario), from the scenario's initial state: x0 = [chaser.p_LC_L,
 chaser.v_LC_L], the target's initial attitude in LVLH and body rate, the chaser's initial
 attitude as the pointing law's start, the target inertia for the prediction (torque-free Euler
 equations with the LVLH frame turning at the planner's n), and the scenario's true polytopes.
@@ -32,74 +35,16 @@ import dataclasses
 import json
 import math
 import pathlib
-import time
 
 import numpy as np
 from pydrake.common.yaml import yaml_dump_typed
 
-from rpod.diagrams.builder import body_polytopes, target_rotation_in_lvlh
+from rpod.diagrams import controller_seam
 from rpod.diagrams.plan_plots import write_plan_plots
 from rpod.diagrams.scenario import Scenario
-from rpod.models.frames import quaternion_wxyz, rotation_from_rpy_deg
 from rpod.planners.plan_check import check_plan
-from rpod.planners.soft_capture import SoftCapturePlanner, predict_for_planner
 from rpod.scenarios.loader import ScenarioFileError
-from rpod.scenarios.run import staged_folder
-
-
-@dataclasses.dataclass
-class ScenarioPlan:
-    """A plan and everything it was made from.
-
-    Attributes:
-        plan: The planner's ``SoftCapturePlan``.
-        config: The ``SoftCaptureConfig`` it was planned with.
-        prediction: The ``TargetPrediction`` it was planned against.
-        x0: Initial state (6,) [m, m/s].
-        chaser_hull: Chaser ``ConvexPolytope`` (C).
-        target_hull: Target ``ConvexPolytope`` (T).
-        wall_time_s: Prediction + planning wall time [s].
-    """
-
-    plan: object
-    config: object
-    prediction: object
-    x0: np.ndarray
-    chaser_hull: object
-    target_hull: object
-    wall_time_s: float
-
-
-def plan_scenario(name: str, scenario: Scenario, closed_loop: bool = False) -> ScenarioPlan:
-    """Plans the scenario's soft capture from its initial state (module docstring).
-
-    Raises:
-        ScenarioFileError: If the scenario has no soft-capture controller (one line naming the
-            field, as the command line reports bad input).
-    """
-    if scenario.controller.type != "soft_capture":
-        raise ScenarioFileError(
-            f"{name}: controller.type: planning needs a soft_capture controller, "
-            f"got '{scenario.controller.type}'"
-        )
-    block = scenario.controller.soft_capture
-    config = block.planning_config() if closed_loop else block.planner
-    chaser, target = scenario.chaser, scenario.target
-    chaser_hull, target_hull = body_polytopes(scenario)
-    if closed_loop:
-        chaser_hull, target_hull = block.planning_hulls(chaser_hull, target_hull)
-    x0 = np.concatenate([np.asarray(chaser.p_LC_L, float), np.asarray(chaser.v_LC_L, float)])
-    start = time.perf_counter()
-    prediction = predict_for_planner(
-        config,
-        quaternion_wxyz(target_rotation_in_lvlh(scenario)),
-        np.radians(np.asarray(target.w_IT_T_deg_s, float)),
-        np.asarray(target.inertia_kg_m2, float),
-    )
-    planner = SoftCapturePlanner(config, chaser_hull, target_hull)
-    plan = planner.plan(x0, prediction, R_LC0=rotation_from_rpy_deg(chaser.rpy_LC_deg))
-    return ScenarioPlan(plan, config, prediction, x0, chaser_hull, target_hull,
-                        time.perf_counter() - start)  # fmt: skip
+from rpod.scenarios.run import check_out_dir, staged_folder
 
 
 def _finite(value):
@@ -108,7 +53,25 @@ def _finite(value):
     return value if math.isfinite(value) else None
 
 
-def plan_arrays(result: ScenarioPlan, alpha_check: np.ndarray | None = None) -> dict:
+def plan_scenario(name: str, scenario: Scenario, closed_loop: bool = False):
+    """The scenario's controller's plan from the initial state (its plug-in's `make_plan`).
+
+    Raises:
+        ScenarioFileError: If the scenario's controller has no planner (one line naming the
+            field, as the command line reports bad input).
+    """
+    plugin = controller_seam.plugin_for(scenario.controller)
+    if plugin is None or plugin.make_plan is None:
+        with_planner = [f"!{p.tag}" for p in controller_seam.controller_plugins() if p.make_plan]
+        got = "none" if plugin is None else f"!{plugin.tag}"
+        raise ScenarioFileError(
+            f"{name}: controller: `rpod plan` needs a controller with a planner "
+            f"({', '.join(with_planner)}), got {got}"
+        )
+    return plugin.make_plan(scenario, closed_loop)
+
+
+def plan_arrays(result, alpha_check: np.ndarray | None = None) -> dict:
     """The arrays of plan.npz (module docstring)."""
     plan, config = result.plan, result.config
     arrays = {
@@ -124,7 +87,7 @@ def plan_arrays(result: ScenarioPlan, alpha_check: np.ndarray | None = None) -> 
     return {key: np.asarray(value) for key, value in arrays.items()}
 
 
-def plan_summary(name: str, result: ScenarioPlan, report) -> dict:
+def plan_summary(name: str, result, report) -> dict:
     """The content of summary.json."""
     plan, config = result.plan, result.config
     summary = {
@@ -160,7 +123,11 @@ def plan_summary(name: str, result: ScenarioPlan, report) -> dict:
 
 
 def plan_to_folder(
-    name: str, scenario: Scenario, out_dir: pathlib.Path, closed_loop: bool = False
+    name: str,
+    scenario: Scenario,
+    out_dir: pathlib.Path,
+    closed_loop: bool = False,
+    overwrite: bool = False,
 ) -> dict:
     """Plans `scenario` and writes plan.npz, summary.json, plots/ and scenario.yaml into out_dir.
 
@@ -169,19 +136,22 @@ def plan_to_folder(
         scenario: A validated scenario with a soft_capture controller.
         out_dir: The folder to write (replaced whole, atomically, when complete).
         closed_loop: Plan with the closed loop's tightened tolerances (module docstring).
+        overwrite: Also replace a folder rpod did not write (`--overwrite`).
 
     Returns:
         The summary (summary.json's content); ``summary["status"]`` is the planner's status.
 
     Raises:
-        ScenarioFileError: If the scenario has no soft-capture controller.
+        ScenarioFileError: If the scenario has no soft-capture controller, or out_dir may not
+            be written (checked before planning).
     """
+    check_out_dir(out_dir, overwrite)
     result = plan_scenario(name, scenario, closed_loop)
     report = None
     if result.plan.N >= 2:
         report = check_plan(result.plan, result.config, result.prediction, x0=result.x0,
                             chaser_hull=result.chaser_hull, target_hull=result.target_hull)  # fmt: skip
-    with staged_folder(out_dir) as staging:
+    with staged_folder(out_dir, overwrite) as staging:
         arrays = plan_arrays(result, None if report is None else report.alpha_check)
         np.savez_compressed(staging / "plan.npz", **arrays)
         (staging / "scenario.yaml").write_text(yaml_dump_typed(scenario))

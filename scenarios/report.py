@@ -1,7 +1,7 @@
 """`rpod report RESULTS`: a campaign's results as tables and plots.
 
 Owns: per-group statistics (count, success rate, metric medians and 5th/95th percentiles), the
-failure reasons, for soft-capture campaigns the paper 000 comparison (soft_capture_stats.py),
+failure reasons, the tables controller plug-ins add (e.g. soft capture beside paper 000),
 and the plots (one histogram per metric, with one series per group; and, for a
 campaign with a two-parameter grid, 2-D maps of the success rate and of each metric's median).
 Does not own: the store (store.py) or the runs.
@@ -17,8 +17,9 @@ import re
 
 import numpy as np
 
-from rpod.scenarios.soft_capture_stats import soft_capture_rows
-from rpod.scenarios.store import ResultStore, store_path
+from rpod.diagrams import controller_seam
+from rpod.scenarios.loader import ScenarioFileError
+from rpod.scenarios.store import ResultStore, make_folder, store_path
 
 MAX_GROUPS_PER_HISTOGRAM = 8
 
@@ -72,8 +73,10 @@ def summary_text(meta: dict, rows: list[dict], metrics: list[str]) -> str:
     """The report's tables as plain text."""
     groups = _groups(rows)
     lines = [
-        f"Campaign {meta.get('campaign_name', '?')}: {len(rows)} runs, base "
-        f"{meta.get('base_name', '?')}",
+        (
+            f"Campaign {meta.get('campaign_name', '?')}: {len(rows)} runs, base "
+            f"{meta.get('base_name', '?')}"
+        ),
         "",
     ]
     group_rows = []
@@ -115,11 +118,13 @@ def summary_text(meta: dict, rows: list[dict], metrics: list[str]) -> str:
         lines += ["", "Metrics over the ok runs of each group:", ""]
         lines += _table(["group", "metric", "n", "median", "p5", "p95"], metric_rows, {2, 3, 4, 5})
 
-    paper = soft_capture_rows(rows)
-    if paper:
-        title = "Soft capture beside paper 000 Sec. VI-B (initial plans; soft_capture_stats.py):"
-        lines += ["", title, ""]
-        lines += _table(["quantity", "this campaign", "paper 000"], paper, set())
+    # Each controller plug-in may add its own table (e.g. a campaign beside its paper).
+    for plugin in controller_seam.controller_plugins():
+        table = plugin.campaign_table(rows)
+        if table is not None:
+            title, header, table_rows = table
+            lines += ["", title, ""]
+            lines += _table(header, table_rows, set())
 
     reasons = {}
     for row in rows:
@@ -235,30 +240,45 @@ def _grid_maps(meta, rows, metrics, out_dir: pathlib.Path) -> list[pathlib.Path]
     return paths
 
 
+def read_results(results) -> tuple[dict, list[dict]]:
+    """(meta, rows) of a store, read-only; read again through the WAL if a sweep wrote meanwhile."""
+    with ResultStore.open_existing(results) as store:
+        meta, rows = store.meta(), store.rows()
+        if not store.changed():
+            return meta, rows
+    with ResultStore.open_existing(results, use_wal=True) as store:
+        return store.meta(), store.rows()
+
+
 def write_report(results, out_dir=None, metrics: list[str] | None = None):
     """(summary text, plot paths); writes report.md and the plots into out_dir.
+
+    The store is only read (see store.py); a bad --out, or one that cannot be written, is a
+    ScenarioFileError.
 
     Args:
         results: a campaign output folder or its results.sqlite.
         out_dir: where to write (default: <results folder>/report).
         metrics: metrics to summarise (default: every scalar metric of the ok runs).
     """
-    with ResultStore.open_existing(results) as store:
-        meta, rows = store.meta(), store.rows()
+    meta, rows = read_results(results)
     names = metric_names(rows)
     if metrics:
         unknown = [m for m in metrics if m not in names]
         if unknown:
-            from rpod.scenarios.loader import ScenarioFileError
-
             raise ScenarioFileError(
                 f"{results}: --metrics: unknown metric(s) {', '.join(unknown)} "
                 f"(known: {', '.join(names) or 'none: no run finished ok'})"
             )
         names = metrics
     out_dir = pathlib.Path(out_dir) if out_dir else store_path(results).parent / "report"
-    out_dir.mkdir(parents=True, exist_ok=True)
+    make_folder(out_dir)
     text = summary_text(meta, rows, names)
-    (out_dir / "report.md").write_text("```\n" + text + "\n```\n")
-    plots = _histograms(rows, names, out_dir) + _grid_maps(meta, rows, names, out_dir)
+    try:
+        (out_dir / "report.md").write_text("```\n" + text + "\n```\n")
+        plots = _histograms(rows, names, out_dir) + _grid_maps(meta, rows, names, out_dir)
+    except OSError as error:
+        raise ScenarioFileError(
+            f"--out {out_dir}: cannot write the report: {error.strerror or error}"
+        ) from None
     return text, plots

@@ -11,6 +11,9 @@ lists, strings, numbers, booleans), and the rules that make that safe and unsurp
   MAX_VALUES values are errors: a 1 KB alias bomb expands to billions of values, and every
   consumer (the schema check, an error message, a JSON dump) would walk them all.
 - Only the safe constructors: no Python tags (`!!python/object` is an error, never executed).
+  A local tag on a mapping (`controller: !HoldPoint {...}`, the typed unions of Drake's
+  yaml_load_typed) becomes a `TaggedMapping`: a dict that remembers its tag. `dump_yaml`
+  writes it back with the tag, so that Drake reads the same union choice.
 Does not own: what the data means (loader.py, campaign.py).
 """
 
@@ -33,6 +36,17 @@ _INT_12 = re.compile(r"^(?:[-+]?[0-9]+|0o[0-7]+|0x[0-9a-fA-F]+)$")
 
 class YamlError(ValueError):
     """The text is not usable YAML; the message says where (line and column) and why."""
+
+
+class TaggedMapping(dict):
+    """A mapping written with a local tag, `!Name {...}`; `tag` is 'Name' (no '!')."""
+
+    def __init__(self, tag: str, items=()):
+        super().__init__(items)
+        self.tag = tag
+
+    def __repr__(self) -> str:
+        return f"!{self.tag} {dict.__repr__(self)}"
 
 
 class _Loader(yaml.SafeLoader):
@@ -63,6 +77,31 @@ def _construct_int(loader, node) -> int:
 
 
 _Loader.add_constructor(_INT_TAG, _construct_int)
+
+
+def _construct_tagged(loader, tag_suffix: str, node):
+    if not isinstance(node, yaml.MappingNode) or not tag_suffix or "!" in tag_suffix:
+        raise yaml.constructor.ConstructorError(
+            None, None, f"the tag !{tag_suffix} is allowed on a mapping only", node.start_mark
+        )
+    return TaggedMapping(tag_suffix, loader.construct_mapping(node, deep=True))
+
+
+_Loader.add_multi_constructor("!", _construct_tagged)
+
+
+class _Dumper(yaml.SafeDumper):
+    """SafeDumper that writes a TaggedMapping with its tag."""
+
+
+_Dumper.add_representer(
+    TaggedMapping, lambda dumper, data: dumper.represent_mapping(f"!{data.tag}", dict(data))
+)
+
+
+def dump_yaml(data) -> str:
+    """YAML text of plain data from parse_yaml (tags kept), for pydrake's yaml_load_typed."""
+    return yaml.dump(data, Dumper=_Dumper)
 
 
 def _where(mark) -> str:

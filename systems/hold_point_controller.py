@@ -69,6 +69,29 @@ class HoldPointControllerConfig:
     max_reference_step_deg: float = 20.0
     capture_axis_C: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 1.0])
 
+    def validate(self) -> None:
+        """Raises ValueError('field: message') naming the first bad field."""
+        for name in (
+            "control_period_s",
+            "translation_bandwidth_rad_s",
+            "translation_damping",
+            "max_speed_m_s",
+            "attitude_bandwidth_rad_s",
+            "attitude_damping",
+            "descent_gate_deg",
+            "max_reference_step_deg",
+        ):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"{name}: must be positive, got {value}")
+        if not (math.isfinite(self.hold_distance_m) and self.hold_distance_m >= 0):
+            raise ValueError(f"hold_distance_m: must not be negative, got {self.hold_distance_m}")
+        axis = np.asarray(self.capture_axis_C, dtype=float)
+        if axis.shape != (3,) or not np.all(np.isfinite(axis)) or np.linalg.norm(axis) < 1e-12:
+            raise ValueError(
+                f"capture_axis_C: expected a non-zero 3-vector, got {self.capture_axis_C}"
+            )
+
 
 def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v)

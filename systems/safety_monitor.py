@@ -8,8 +8,13 @@ Definitions.
 - separation_m: Euclidean distance between the true convex shapes of chaser and target
   (0 when they touch or overlap), rpod.models.shapes.separation_distance.
 - corridor_violation_rad: angle between the docking axis a_T and the line from the docking port
-  D to the chaser's capture point E, minus the corridor half-angle; <= 0 inside the corridor
-  (the LOS cone of papers 001 eq. 18 and 004, taken here as a circular cone).
+  D to the chaser's centre of mass C, minus the corridor half-angle; <= 0 inside the corridor
+  (paper 000's docking cone, eq. 11, whose apex is D_t; the LOS cones of papers 001 eq. 18 and
+  004 are about the target's centre, and 004's is polyhedral: rpod.models has it apart). The
+  capture point E is not used: it meets D at capture, where the direction D -> E means nothing.
+- port_distance_m: |p_DC|, the chaser's centre of mass from the docking port (the corridor's
+  extent is measured with it).
+- capture_distance_m: |p_DE|, the capture points' distance.
 - capture_speed_m_s: |v_E - v_D|, the inertial relative speed of the two capture points,
   v_E = v_C + w_IC x r_CE, v_D = v_T + w_IT x r_TD.
 """
@@ -28,7 +33,9 @@ class SafetyMonitor(LeafSystem):
     """Monitors separation, corridor and capture-point speed (see the module docstring).
 
     Input port: sensed (27, the sensed bundle of rpod.systems.sensed).
-    Output ports: separation_m (1), corridor_violation_rad (1), capture_speed_m_s (1).
+    Output ports: separation_m (1), corridor_violation_rad (1), capture_speed_m_s (1),
+        capture_distance_m (1): |p_DE|, from the docking port D to the chaser's capture point E,
+        port_distance_m (1): |p_DC|, from the docking port D to the chaser's centre of mass.
     """
 
     def __init__(
@@ -51,6 +58,8 @@ class SafetyMonitor(LeafSystem):
         self.DeclareVectorOutputPort("separation_m", 1, self._calc_separation)
         self.DeclareVectorOutputPort("corridor_violation_rad", 1, self._calc_corridor)
         self.DeclareVectorOutputPort("capture_speed_m_s", 1, self._calc_capture_speed)
+        self.DeclareVectorOutputPort("capture_distance_m", 1, self._calc_capture_distance)
+        self.DeclareVectorOutputPort("port_distance_m", 1, self._calc_port_distance)
 
     def _poses(self, context):
         """(R_LT, R_LC, p_LC_L, v_LC_L, R_IL, w_IL_L, target, chaser) at this context."""
@@ -72,10 +81,19 @@ class SafetyMonitor(LeafSystem):
         output.SetAtIndex(0, distance)
 
     def _calc_corridor(self, context, output):
+        R_LT, _, p_LC_L, *_ = self._poses(context)
+        p_DC_L = p_LC_L - R_LT @ self._p_TD_T
+        cos_angle = (R_LT @ self._a_T) @ p_DC_L / max(np.linalg.norm(p_DC_L), 1e-12)
+        output.SetAtIndex(0, math.acos(float(np.clip(cos_angle, -1, 1))) - self._half_angle)
+
+    def _calc_capture_distance(self, context, output):
         R_LT, R_LC, p_LC_L, *_ = self._poses(context)
         p_DE_L = p_LC_L + R_LC @ self._p_CE_C - R_LT @ self._p_TD_T
-        cos_angle = (R_LT @ self._a_T) @ p_DE_L / max(np.linalg.norm(p_DE_L), 1e-12)
-        output.SetAtIndex(0, math.acos(float(np.clip(cos_angle, -1, 1))) - self._half_angle)
+        output.SetAtIndex(0, float(np.linalg.norm(p_DE_L)))
+
+    def _calc_port_distance(self, context, output):
+        R_LT, _, p_LC_L, *_ = self._poses(context)
+        output.SetAtIndex(0, float(np.linalg.norm(p_LC_L - R_LT @ self._p_TD_T)))
 
     def _calc_capture_speed(self, context, output):
         R_LT, R_LC, p_LC_L, v_LC_L, R_IL, w_IL_L, target, chaser = self._poses(context)

@@ -10,14 +10,16 @@ import dataclasses
 
 import numpy as np
 import pytest
+from pydrake.math import RotationMatrix
 
 from rpod.diagrams.builder import build_diagram, simulate
 from rpod.diagrams.scenario import (
     ChaserConfig,
-    ControllerConfig,
     Scenario,
+    ScenarioError,
     TargetConfig,
     ThrustersConfig,
+    validate_scenario,
 )
 from rpod.models.frames import rotation_from_rpy_deg, rotation_from_wxyz
 from rpod.models.thrusters import STANDARD_GRAVITY_M_S2
@@ -27,8 +29,13 @@ from rpod.systems.orbital_dynamics import OrbitConfig
 def test_controlled_diagram_has_every_named_system():
     diagram, handles = build_diagram(Scenario(duration_s=1.0))
     names = {system.get_name() for system in diagram.GetSystems()}
-    assert {"orbital_dynamics", "target_attitude", "chaser_attitude", "thruster_bank", "pwm",
-            "wrench_allocator", "hold_point_controller", "safety_monitor"} <= names
+    assert {
+        "truth",  # both orbits, both attitudes, the mass and the thrusters (rpod.systems.truth)
+        "pwm",
+        "wrench_allocator",
+        "hold_point_controller",
+        "safety_monitor",
+    } <= names
     assert handles.layout.count == 12
 
 
@@ -38,14 +45,20 @@ def test_initial_attitudes_are_given_relative_to_lvlh():
         target=TargetConfig(rpy_LT_deg=[10.0, -20.0, 90.0]),
         chaser=ChaserConfig(rpy_LC_deg=[0.0, 45.0, 0.0]),
         thrusters=ThrustersConfig(enabled=False),
-        controller=ControllerConfig(type="none"),
+        controller=None,
     )
     log = simulate(scenario).log
     R_IL = rotation_from_wxyz(log["q_IL"][0])
-    np.testing.assert_allclose(R_IL.T @ rotation_from_wxyz(log["q_IT"][0]),
-                               rotation_from_rpy_deg([10.0, -20.0, 90.0]), atol=1e-12)
-    np.testing.assert_allclose(R_IL.T @ rotation_from_wxyz(log["q_IC"][0]),
-                               rotation_from_rpy_deg([0.0, 45.0, 0.0]), atol=1e-12)
+    np.testing.assert_allclose(
+        R_IL.T @ rotation_from_wxyz(log["q_IT"][0]),
+        rotation_from_rpy_deg([10.0, -20.0, 90.0]),
+        atol=1e-12,
+    )
+    np.testing.assert_allclose(
+        R_IL.T @ rotation_from_wxyz(log["q_IC"][0]),
+        rotation_from_rpy_deg([0.0, 45.0, 0.0]),
+        atol=1e-12,
+    )
 
 
 def test_target_quaternion_gives_the_attitude():
@@ -56,7 +69,7 @@ def test_target_quaternion_gives_the_attitude():
         duration_s=1.0,
         target=TargetConfig(q_LT=[np.cos(half), 0.0, 0.0, np.sin(half)]),
         thrusters=ThrustersConfig(enabled=False),
-        controller=ControllerConfig(type="none"),
+        controller=None,
     )
     log = simulate(scenario).log
     R_LT = rotation_from_wxyz(log["q_IL"][0]).T @ rotation_from_wxyz(log["q_IT"][0])
@@ -70,7 +83,7 @@ def test_free_space_coast_is_a_straight_line():
         orbit=OrbitConfig(gravity="free_space"),
         chaser=ChaserConfig(p_LC_L=list(p0), v_LC_L=list(v0)),
         thrusters=ThrustersConfig(enabled=False),
-        controller=ControllerConfig(type="none"),
+        controller=None,
     )
     log = simulate(scenario).log
     expected = p0 + log["t"][:, None] * v0
@@ -80,7 +93,7 @@ def test_free_space_coast_is_a_straight_line():
 def test_propellant_equals_the_impulse_the_pwm_delivered():
     base = Scenario()
     thrusters = base.thrusters
-    slot_s = base.controller.hold_point.control_period_s / thrusters.subdivisions
+    slot_s = base.controller.control_period_s / thrusters.subdivisions
     # Log at the slot period: the logger's and the PWM's event times are then computed alike,
     # so every row is published before that instant's PWM update and row j holds slot j - 1.
     # (With a log period of, say, 0.1 s, 0.1 k and 0.01 (10 k) differ in the last bit, and a
@@ -96,3 +109,30 @@ def test_propellant_equals_the_impulse_the_pwm_delivered():
     # The mass flow is constant over each slot and RK3 steps end at every slot: exact.
     assert log["propellant_kg"][-1] == pytest.approx(expected_kg, rel=1e-9)
     assert result.summary["propellant_kg"] == pytest.approx(expected_kg, rel=1e-9)
+
+
+def test_point_at_target_starts_with_the_capture_axis_on_the_line_of_sight():
+    """chaser.point_at_target: R_LC c_hat = -p_hat at t = 0 (to 1e-12), the least rotation."""
+    scenario = Scenario(
+        duration_s=1.0,
+        chaser=ChaserConfig(
+            p_LC_L=[12.0, -30.0, 5.0], capture_point_C=[0.3, 0.0, 0.75], point_at_target=True
+        ),
+        thrusters=ThrustersConfig(enabled=False),
+        controller=None,
+    )
+    log = simulate(scenario).log
+    R_LC = rotation_from_wxyz(log["q_IL"][0]).T @ rotation_from_wxyz(log["q_IC"][0])
+    c_hat = np.array([0.3, 0.0, 0.75]) / np.linalg.norm([0.3, 0.0, 0.75])
+    p_hat = np.array([12.0, -30.0, 5.0]) / np.linalg.norm([12.0, -30.0, 5.0])
+    np.testing.assert_allclose(R_LC @ c_hat, -p_hat, atol=1e-12)
+    # The least rotation: its axis is normal to both directions.
+    angle_axis = RotationMatrix(R_LC).ToAngleAxis()
+    assert abs(angle_axis.axis() @ c_hat) < 1e-9 and abs(angle_axis.axis() @ p_hat) < 1e-9
+
+
+def test_point_at_target_and_a_given_attitude_is_a_field_error():
+    scenario = Scenario(chaser=ChaserConfig(rpy_LC_deg=[0.0, 10.0, 0.0], point_at_target=True))
+    with pytest.raises(ScenarioError, match="given twice") as error:
+        validate_scenario(scenario)
+    assert error.value.field == "chaser.point_at_target"

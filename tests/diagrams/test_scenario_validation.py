@@ -9,7 +9,6 @@ from rpod.diagrams.scenario import (
     MAX_DURATION_S,
     MAX_SAMPLES,
     ChaserConfig,
-    ControllerConfig,
     Scenario,
     ScenarioError,
     TargetConfig,
@@ -67,8 +66,8 @@ BAD = [
     ("max_step_tiny", {"integrator__max_step_s": 1e-12}, "integrator.max_step_s", "at most"),
     (
         "control_period_tiny",
-        {"controller__hold_point__control_period_s": 1e-9},
-        "controller.hold_point.control_period_s",
+        {"controller__control_period_s": 1e-9},
+        "controller.control_period_s",
         "at most",
     ),
 ]
@@ -87,7 +86,7 @@ def test_limits_themselves_are_accepted():
     scenario = Scenario(
         duration_s=MAX_DURATION_S,
         log_period_s=MAX_DURATION_S / MAX_SAMPLES,
-        controller=ControllerConfig(type="none"),
+        controller=None,
         thrusters=ThrustersConfig(enabled=False),
     )
     scenario.visualization.publish_period_s = MAX_DURATION_S / MAX_SAMPLES
@@ -117,7 +116,7 @@ def _coast(duration_s: float, log_period_s: float) -> Scenario:
         chaser=ChaserConfig(p_LC_L=[0.0, -30.0, 0.0], v_LC_L=[0.1, 0.0, 0.0]),
         target=TargetConfig(w_IT_T_deg_s=[0.0, 0.0, 0.0]),
         thrusters=ThrustersConfig(enabled=False),
-        controller=ControllerConfig(type="none"),
+        controller=None,
     )
 
 

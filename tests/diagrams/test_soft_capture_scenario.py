@@ -1,7 +1,8 @@
-"""The soft-capture parts of the scenario and of the run summary.
+"""The soft-capture plug-in: its part of the scenario and of the run summary.
 
-Validation: bad numbers and disagreements with the rest of the scenario are config errors that
-name the field; a tumble above the method's limit is not (the planner reports it at run time).
+Validation: bad numbers are config errors that name the field; the planner's problem data are
+derived from the scenario, never written twice; a tumble above the method's limit is not a
+config error (the planner reports it at run time).
 Capture criterion (`capture_outcome`): synthetic logs with a known answer -- the chaser turned by
 pi about y (capture axis toward the target) on the target's +z axis, so the capture points'
 distance is exactly |p_z - 5.4| m.
@@ -12,8 +13,10 @@ import dataclasses
 import numpy as np
 import pytest
 
-from rpod.diagrams.builder import build_diagram, capture_outcome
+from rpod.diagrams.builder import build_diagram
+from rpod.diagrams.controllers.soft_capture import capture_outcome, planner_config
 from rpod.diagrams.scenario import ScenarioError, validate_scenario
+from rpod.models.gravity import R_EARTH_M
 from rpod.scenarios.loader import ScenarioFileError, load_scenario, parse_scenario
 
 Q_IDENTITY = [1.0, 0.0, 0.0, 0.0]
@@ -41,22 +44,12 @@ def _with(scenario, **changes):
 @pytest.mark.parametrize(
     "changes, field",
     [
-        ({"controller__soft_capture__planner__semi_major_axis_m": 7000e3},
-         "controller.soft_capture.planner.semi_major_axis_m"),
-        ({"controller__soft_capture__planner__chaser_mass_kg": 1000.0},
-         "controller.soft_capture.planner.chaser_mass_kg"),
-        ({"controller__soft_capture__planner__max_speed_m_s": -1.0},
-         "controller.soft_capture.planner.max_speed_m_s"),
-        ({"controller__soft_capture__replan_period_s": 2.5},
-         "controller.soft_capture.replan_period_s"),
-        ({"controller__soft_capture__collision_margin": -0.1},
-         "controller.soft_capture.collision_margin"),
+        ({"controller__planner__max_speed_m_s": -1.0}, "controller.planner.max_speed_m_s"),
+        ({"controller__replan_period_s": 2.5}, "controller.replan_period_s"),
+        ({"controller__collision_margin": -0.1}, "controller.collision_margin"),
         ({"chaser__shape": "sphere"}, "chaser.shape"),
         ({"target__shape": "soft_capture_chaser"}, "target.shape"),
-        ({"target__docking_port_T": [0.0, 0.0, 1.0]}, "target.docking_port_T"),
         ({"target__docking_axis_T": [1.0, 0.0, 0.0]}, "target.docking_axis_T"),
-        ({"chaser__capture_point_C": [0.0, 0.0, 1.0]}, "chaser.capture_point_C"),
-        ({"target__corridor_half_angle_deg": 20.0}, "target.corridor_half_angle_deg"),
         ({"orbit__gravity": "free_space"}, "orbit.gravity"),
         ({"thrusters__enabled": False}, "thrusters.enabled"),
     ],
@@ -67,24 +60,38 @@ def test_bad_soft_capture_settings_name_their_field(changes, field):
     assert error.value.field == field
 
 
+def test_the_planner_problem_data_come_from_the_scenario():
+    """a, m, D_c, D_t and theta_dock are the orbit's, chaser's and target's: no copies."""
+    scenario = _with(
+        _scenario(),
+        orbit__altitude_m=800e3,
+        chaser__mass_kg=900.0,
+        chaser__capture_point_C=[0.0, 0.0, 2.0],
+        target__docking_port_T=[0.0, 0.0, 1.9],
+        target__corridor_half_angle_deg=25.0,
+    )
+    validate_scenario(scenario)
+    config = planner_config(scenario)
+    assert config.semi_major_axis_m == R_EARTH_M + 800e3
+    assert config.chaser_mass_kg == 900.0 and config.docking_half_angle_deg == 25.0
+    assert config.p_CDc_C == [0.0, 0.0, 2.0] and config.p_TDt_T == [0.0, 0.0, 1.9]
+    assert config.max_speed_m_s == scenario.controller.planner.max_speed_m_s  # the settings
+
+
 def test_a_tumble_above_the_limit_is_not_a_config_error():
     validate_scenario(_with(_scenario(), target__w_IT_T_deg_s=[15.0, 0.0, 0.0]))
 
 
 def test_the_loader_names_file_and_field_of_a_bad_soft_capture_value():
-    text = (
-        "controller:\n  type: soft_capture\n  soft_capture:\n    planner:\n      min_knots: ten\n"
-    )
-    with pytest.raises(
-        ScenarioFileError, match=r"^my.yaml: controller.soft_capture.planner.min_knots"
-    ):
+    text = "controller: !SoftCapture\n  planner:\n    min_knots: ten\n"
+    with pytest.raises(ScenarioFileError, match=r"^my.yaml: controller.planner.min_knots"):
         parse_scenario(text, "my.yaml")
 
 
 def test_the_soft_capture_diagram_uses_the_true_polytopes():
     diagram, handles = build_diagram(_scenario())
     names = {system.get_name() for system in diagram.GetSystems()}
-    assert {"soft_capture_controller", "wrench_allocator", "pwm", "thruster_bank"} <= names
+    assert {"soft_capture_controller", "wrench_allocator", "pwm", "truth"} <= names
     assert len(handles.monitor._chaser_shape.b) == 8 and len(handles.monitor._target_shape.b) == 7
     pwm = diagram.GetSubsystemByName("pwm")
     assert pwm.control_period_s == pytest.approx(0.1)

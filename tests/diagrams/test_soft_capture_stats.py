@@ -3,7 +3,7 @@
 import pytest
 
 from rpod.scenarios.report import summary_text
-from rpod.scenarios.soft_capture_stats import soft_capture_rows
+from rpod.diagrams.controllers.soft_capture_stats import soft_capture_rows
 
 
 def _run(scp: int, steps: list[float], accepted=True, captured=True, after=False, status="ok"):

@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from rpod.diagrams.builder import target_rotation_in_lvlh
+from rpod.diagrams.controllers.soft_capture import planner_config
 from rpod.models.frames import quaternion_wxyz
 from rpod.models.shapes import ConvexPolytope
 from rpod.planners.plan_check import check_plan
@@ -85,7 +86,7 @@ def test_the_independent_checker_passes_on_the_written_plan(planned):
     plan = types.SimpleNamespace(
         N=N, **{key: arrays[key] for key in ("t", "x", "u", "q_LT", "w_IT_T", "q_LC", "alpha")}
     )
-    config = scenario.controller.soft_capture.planner
+    config = planner_config(scenario)
     prediction = predict_for_planner(
         config,
         quaternion_wxyz(target_rotation_in_lvlh(scenario)),
@@ -105,7 +106,7 @@ def test_the_independent_checker_passes_on_the_written_plan(planned):
 def test_closed_loop_plan_uses_the_tightened_tolerances(tmp_path):
     name, scenario = load_scenario("soft_capture")
     summary = plan_to_folder(name, scenario, tmp_path / "p", closed_loop=True)
-    fraction = scenario.controller.soft_capture.plan_tolerance_fraction
+    fraction = scenario.controller.plan_tolerance_fraction
     assert summary["eps_p"] == pytest.approx(0.35 * fraction)
     assert summary["check"]["passed"]
     assert float(np.load(tmp_path / "p" / "plan.npz")["eps_p"]) == pytest.approx(0.35 * fraction)
@@ -113,7 +114,7 @@ def test_closed_loop_plan_uses_the_tightened_tolerances(tmp_path):
 
 def test_a_scenario_without_a_soft_capture_controller_is_refused(tmp_path):
     name, scenario = load_scenario("hold_point")
-    with pytest.raises(ScenarioFileError, match="controller.type"):
+    with pytest.raises(ScenarioFileError, match="needs a controller with a planner"):
         plan_to_folder(name, scenario, tmp_path / "p")
     assert not (tmp_path / "p").exists()
 

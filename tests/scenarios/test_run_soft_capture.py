@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 from rpod.diagrams.builder import simulate
+from rpod.diagrams.controllers.soft_capture import planner_config
 from rpod.diagrams.recording import find_chromium, screenshot_html
 from rpod.models.frames import rotation_from_wxyz
 from rpod.scenarios.loader import load_scenario
@@ -185,6 +186,7 @@ def test_a_fast_tumble_is_captured_at_its_final_knot():
     _, scenario = load_scenario("soft_capture")
     scenario.target.q_LT = [0.33170054575972746, 0.6455921453378278,
                             -0.5648127253327948, 0.39264757114101795]  # fmt: skip
+    scenario.target.rpy_LT_deg = []  # the attitude is q_LT's (giving both is an error)
     scenario.target.w_IT_T_deg_s = [5.680021906773613, -7.222325958400382, 3.6882842463847374]
     scenario.chaser.p_LC_L = [-5.224736565676378, -34.24713596620917, -9.957388309501193]
     scenario.chaser.v_LC_L = [-0.01588254381558877, 0.009692151485150796, 0.00830524158880822]
@@ -216,7 +218,7 @@ def test_random_sec_vib_starts_capture_in_closed_loop(seed):
 
     rng = np.random.default_rng(seed)
     _, base = load_scenario("soft_capture")
-    n = base.controller.soft_capture.planner.mean_motion
+    n = planner_config(base).mean_motion
     failures = []
     for _ in range(5):
         _, scenario = load_scenario("soft_capture")
@@ -228,6 +230,7 @@ def test_random_sec_vib_starts_capture_in_closed_loop(seed):
         w = rng.normal(size=3)
         w *= np.radians(rng.uniform(0.5, 10.0)) / np.linalg.norm(w)
         scenario.target.q_LT = (q / np.linalg.norm(q)).tolist()
+        scenario.target.rpy_LT_deg = []  # the attitude is q_LT's (giving both is an error)
         scenario.target.w_IT_T_deg_s = np.degrees(w).tolist()
         scenario.chaser.p_LC_L, scenario.chaser.v_LC_L = x0[:3].tolist(), x0[3:].tolist()
         R_LC = min_rotation(np.array([0.0, 0.0, 1.0]), -x0[:3] / np.linalg.norm(x0[:3]))

@@ -70,8 +70,10 @@ def test_separation_follows_the_target_rotation():
 
 def test_corridor_violation_is_angle_from_docking_axis_minus_half_angle():
     monitor, context = make(corridor_deg=30.0)
-    # Capture point E at p + (0, 0, -0.5); port D at (0, 0, 1): D->E = (3, 0, 3): 45 deg.
-    feed(monitor, context, [3.0, 0.0, 4.5])
+    # Chaser centre of mass C at (3, 0, 4); port D at (0, 0, 1): D->C = (3, 0, 3): 45 deg.
+    # (paper 000's docking cone, eq. 11, has its apex at the port and constrains the centre of
+    # mass; the capture point E, 0.5 m below C here, is not used.)
+    feed(monitor, context, [3.0, 0.0, 4.0])
     assert read(monitor, context, "corridor_violation_rad") == pytest.approx(
         math.radians(45.0 - 30.0), abs=1e-12
     )

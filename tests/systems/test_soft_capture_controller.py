@@ -129,7 +129,7 @@ def test_tracking_a_plan_on_cw_truth_without_pwm_lands_on_its_terminal_state():
         thrusters=dataclasses.replace(scenario.thrusters, pwm=False),
         duration_s=49.0,
     )
-    scenario.controller.soft_capture.replan_period_s = 0.0
+    scenario.controller.replan_period_s = 0.0
     result = simulate(scenario)
     log = result.log
     (plan,) = result.summary["plans"]

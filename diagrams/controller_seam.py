@@ -1,0 +1,246 @@
+"""The guidance seam: how a controller plugs into rpod (DESIGN.md, "Guidance seam").
+
+Owns: the `ControllerPlugin` interface, the registry of plug-ins (built-ins, Python entry
+points of the group `rpod.controllers`, and `register_controller` calls), the three actuation
+paths a controller may drive (`Actuation`), and what a plug-in hands the builder
+(`ControllerWiring`) and `simulate` (`ControllerResults`).
+Does not own: any controller (rpod.diagrams.controllers.* and third-party modules), the
+wiring of the actuation paths (rpod.diagrams.builder) or the scenario schema
+(rpod.diagrams.scenario, whose `controller` field is the union of the registered configs).
+
+A scenario chooses its controller by YAML tag, the class name of the plug-in's config
+dataclass, as Drake's typed unions do (`controller: !HoldPoint {...}`, `!SoftCapture {...}`,
+or `controller: null` to coast). Each plug-in says, in one module:
+- `config_type`: the config dataclass (its class name is the tag), with `validate()`;
+- `validate(config, scenario)`: the checks that need the rest of the scenario;
+- `add_to_diagram(builder, scenario, sensed)`: adds its systems, reads the sensed bundle
+  (rpod.systems.sensed), and returns the actuation path it drives, its command port and the
+  outputs to log;
+- `results(...)`: its entries in summary.json and log.npz, and the mission outcome;
+- `add_scene_extras(...)`: anything it draws in the Meshcat scene;
+- optionally `make_plan(...)`, for `rpod plan`, and `campaign_table(rows)`, for `rpod report`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import importlib.metadata
+import logging
+import typing
+
+ENTRY_POINT_GROUP = "rpod.controllers"
+
+
+class Actuation(enum.Enum):
+    """The three actuation paths (DESIGN.md): what a controller's command port carries.
+
+    BODY_WRENCH: [tau_C; f_C] (6) -> box-constrained allocator -> PWM -> thruster bank.
+    THRUSTER_COMMANDS: one level in [0, 1] per fixed thruster (n) -> PWM -> thruster bank.
+    IDEAL: an ideal force or acceleration (3), bounded per axis or in norm, in L or C, applied
+        straight to the truth, its propellant drawn at the thrusters' Isp; attitude torque 0.
+    """
+
+    BODY_WRENCH = "body_wrench"
+    THRUSTER_COMMANDS = "thruster_commands"
+    IDEAL = "ideal"
+
+
+@dataclasses.dataclass(frozen=True)
+class IdealCommand:
+    """How the IDEAL path reads a command (3).
+
+    Attributes:
+        quantity: 'acceleration' [m/s^2] or 'force' [N].
+        frame: 'L' (LVLH) or 'C' (chaser body).
+        bound: 'box' (each component within +-limit, paper 004 eq. 11e) or 'norm'.
+        limit: the bound, in the quantity's unit (> 0).
+    """
+
+    quantity: str = "acceleration"
+    frame: str = "L"
+    bound: str = "box"
+    limit: float = 0.1
+
+    def validate(self) -> None:
+        """ValueError naming the bad attribute."""
+        for name, allowed in (
+            ("quantity", ("acceleration", "force")),
+            ("frame", ("L", "C")),
+            ("bound", ("box", "norm")),
+        ):
+            if getattr(self, name) not in allowed:
+                raise ValueError(f"{name}: must be one of {allowed}, got {getattr(self, name)!r}")
+        if not self.limit > 0:
+            raise ValueError(f"limit: must be positive, got {self.limit}")
+
+
+@dataclasses.dataclass
+class ControllerWiring:
+    """What a plug-in's add_to_diagram hands back to the builder.
+
+    Attributes:
+        system: the controller system (simulate passes its context to `results`).
+        actuation: the path its command port drives.
+        command: the command port (size 6, n or 3 by path).
+        control_period_s: its sample period (the PWM period on paths 1 and 2).
+        logged: log key -> output port, logged at the scenario's log period.
+        ideal: how the IDEAL path reads the command (required for Actuation.IDEAL).
+    """
+
+    system: typing.Any
+    actuation: Actuation
+    command: typing.Any
+    control_period_s: float
+    logged: dict = dataclasses.field(default_factory=dict)
+    ideal: IdealCommand | None = None
+
+
+@dataclasses.dataclass(frozen=True)
+class MissionOutcome:
+    """Whether the controller's mission succeeded, and the one line that says so.
+
+    Attributes:
+        success: True or False.
+        text: one line for `rpod run`, e.g. "captured at 48.5 s to 0.109 m and 0.029 m/s" or
+            "not captured: contact: the true polytopes touched at t = 31.20 s".
+    """
+
+    success: bool
+    text: str
+
+
+@dataclasses.dataclass
+class ControllerResults:
+    """A plug-in's additions to a finished run.
+
+    Attributes:
+        summary: entries added to summary.json (JSON-safe).
+        log: arrays added to log.npz.
+        outcome: the mission outcome, or None when the controller has no mission criterion.
+    """
+
+    summary: dict = dataclasses.field(default_factory=dict)
+    log: dict = dataclasses.field(default_factory=dict)
+    outcome: MissionOutcome | None = None
+
+
+class ControllerPlugin:
+    """Base class of a controller plug-in; see the module docstring for each hook."""
+
+    config_type: type = None  # the config dataclass; its class name is the YAML tag
+    system_name: str = "controller"  # the controller system's name in the diagram
+
+    @property
+    def tag(self) -> str:
+        """The YAML tag that selects this controller, without '!'."""
+        return self.config_type.__name__
+
+    def validate(self, config, scenario) -> None:
+        """Raises ScenarioError (field relative to the scenario) on a bad config.
+
+        The default calls config.validate(), which raises ValueError('field: message') with
+        the field relative to the controller block.
+        """
+
+    def add_to_diagram(self, builder, scenario, sensed) -> ControllerWiring:
+        """Adds the controller's systems; `sensed` is the sensed bundle's output port."""
+        raise NotImplementedError
+
+    def results(self, scenario, wiring: ControllerWiring, context, log: dict) -> ControllerResults:
+        """Summary and log entries of a finished run (`context` is the diagram's root)."""
+        return ControllerResults()
+
+    def add_scene_extras(self, builder, meshcat, scenario, wiring: ControllerWiring) -> None:
+        """Draws what the controller adds to the Meshcat scene (nothing by default)."""
+
+    def planned_end_s(self, wiring: ControllerWiring, context) -> float | None:
+        """When the controller's own plan ends (e.g. a planned capture), read after the
+        diagram's initialization events (`context` is the root); None: it has no such time.
+
+        simulate warns when it is after duration_s, and `stop.at_plan_end` ends the run there.
+        """
+        return None
+
+    def campaign_table(self, rows: list[dict]) -> tuple[str, list[str], list[list[str]]] | None:
+        """A table for `rpod report` over a campaign's stored rows (title, header, rows), or
+        None when the campaign is not this controller's (the default)."""
+        return None
+
+    make_plan = None  # optional: (scenario, closed_loop) -> a plan, for `rpod plan`
+
+
+_PLUGINS: dict[str, ControllerPlugin] = {}
+_DEFAULT: list[str] = []
+_LISTENERS: list[typing.Callable[[], None]] = []
+_ENTRY_POINTS_LOADED = False
+
+
+def register_controller(plugin: ControllerPlugin, *, default: bool = False) -> ControllerPlugin:
+    """Makes a controller available to scenarios under the tag of its config class.
+
+    Re-registering the same tag replaces the plug-in (a module reloaded in a notebook). The
+    scenario schema's controller union is refreshed at once.
+    """
+    if not dataclasses.is_dataclass(plugin.config_type):
+        raise TypeError(f"{type(plugin).__name__}.config_type must be a dataclass")
+    _PLUGINS[plugin.tag] = plugin
+    if default:
+        _DEFAULT[:] = [plugin.tag]
+    for listener in _LISTENERS:
+        listener()
+    return plugin
+
+
+def on_registry_change(listener: typing.Callable[[], None]) -> None:
+    """Calls listener() now and after every registration (the schema keeps its union fresh)."""
+    _LISTENERS.append(listener)
+    listener()
+
+
+def load_entry_points() -> None:
+    """Imports the plug-in modules other packages declare (entry point group rpod.controllers).
+
+    Each entry point names a module (or an object in one) whose import registers its
+    controllers. A plug-in that fails to import is logged and skipped, never fatal.
+    """
+    global _ENTRY_POINTS_LOADED
+    if _ENTRY_POINTS_LOADED:
+        return
+    _ENTRY_POINTS_LOADED = True
+    for entry in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
+        try:
+            entry.load()
+        except Exception as error:  # noqa: BLE001  (a broken third-party plug-in must not break rpod)
+            logging.getLogger("rpod").warning("controller plug-in %s: %s", entry.name, error)
+
+
+def controller_plugins() -> list[ControllerPlugin]:
+    """The registered plug-ins, in registration order."""
+    return list(_PLUGINS.values())
+
+
+def config_types() -> tuple[type, ...]:
+    """The registered config types, the default first (a Union's untagged choice)."""
+    tags = _DEFAULT + [tag for tag in _PLUGINS if tag not in _DEFAULT]
+    return tuple(_PLUGINS[tag].config_type for tag in tags)
+
+
+def default_config():
+    """A config of the default controller (None when none is registered: coast)."""
+    return _PLUGINS[_DEFAULT[0]].config_type() if _DEFAULT else None
+
+
+def plugin_for(config) -> ControllerPlugin | None:
+    """The plug-in of a controller config (None for None: no controller)."""
+    if config is None:
+        return None
+    for plugin in _PLUGINS.values():
+        if type(config) is plugin.config_type:
+            return plugin
+    raise KeyError(f"no controller registered for {type(config).__name__}")
+
+
+def plugin_by_tag(tag: str) -> ControllerPlugin | None:
+    """The plug-in registered under a tag (without '!'), or None."""
+    return _PLUGINS.get(tag)

@@ -1,0 +1,184 @@
+"""The guidance seam is real: controllers defined here, in the test, registered without editing
+any rpod module, run through `rpod run` on actuation paths 2 and 3, against closed forms.
+
+Free space (no gravity, the target fixed at the origin, L = I) makes the closed forms exact:
+- path 3, a constant ideal acceleration a in L: p(t) = p0 + v0 t + a t^2 / 2, and the
+  delta-v, g0 Isp ln(m0 / m), equals |a| t (the force follows the mass: f = m a);
+- path 2, constant levels on the +y thrusters of rcs_cube_12 (a pure +y force): every
+  thruster's impulse is level x thrust x t through the PWM, and the rocket equation gives the
+  final speed exactly, v = g0 Isp ln(m0 / m), however the pulses fall.
+"""
+
+import dataclasses
+import json
+import math
+
+import numpy as np
+import pytest
+from pydrake.systems.framework import LeafSystem
+
+from rpod.diagrams.controller_seam import (
+    Actuation,
+    ControllerPlugin,
+    ControllerResults,
+    ControllerWiring,
+    IdealCommand,
+    MissionOutcome,
+    controller_plugins,
+    register_controller,
+)
+from rpod.models.thrusters import STANDARD_GRAVITY_M_S2
+from rpod.scenarios import cli
+
+ISP_S = 220.0
+
+
+class _Constant(LeafSystem):
+    """A constant vector on an output port named `command` (the sensed input is read by none)."""
+
+    def __init__(self, value):
+        super().__init__()
+        self.DeclareVectorInputPort("sensed", 27)
+        value = np.asarray(value, float)
+        self.DeclareVectorOutputPort("command", len(value), lambda c, o: o.SetFromVector(value))
+
+
+@dataclasses.dataclass
+class ConstantAcceleration:
+    """Test controller: a constant ideal acceleration in L (path 3)."""
+
+    a_L: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.01, 0.0])
+    limit_m_s2: float = 0.05
+    control_period_s: float = 1.0
+
+    def validate(self) -> None:
+        if len(self.a_L) != 3:
+            raise ValueError("a_L: expected 3 numbers")
+
+
+class ConstantAccelerationPlugin(ControllerPlugin):
+    config_type = ConstantAcceleration
+    system_name = "constant_acceleration"
+
+    def validate(self, config, scenario):
+        config.validate()
+
+    def add_to_diagram(self, builder, scenario, sensed):
+        config = scenario.controller
+        system = builder.AddNamedSystem(self.system_name, _Constant(config.a_L))
+        builder.Connect(sensed, system.GetInputPort("sensed"))
+        return ControllerWiring(
+            system,
+            Actuation.IDEAL,
+            system.GetOutputPort("command"),
+            config.control_period_s,
+            {"commanded_acceleration_L": system.GetOutputPort("command")},
+            ideal=IdealCommand("acceleration", "L", "box", config.limit_m_s2),
+        )
+
+    def results(self, scenario, wiring, context, log):
+        moved = float(np.linalg.norm(log["p_LC_L"][-1] - log["p_LC_L"][0]))
+        return ControllerResults(
+            summary={"moved_m": moved},
+            outcome=MissionOutcome(moved > 1.0, f"moved {moved:.2f} m"),
+        )
+
+
+@dataclasses.dataclass
+class FixedLevels:
+    """Test controller: constant per-thruster levels in [0, 1] (path 2)."""
+
+    levels: list[float] = dataclasses.field(default_factory=lambda: [0.0] * 12)
+    control_period_s: float = 0.1
+
+
+class FixedLevelsPlugin(ControllerPlugin):
+    config_type = FixedLevels
+    system_name = "fixed_levels"
+
+    def add_to_diagram(self, builder, scenario, sensed):
+        config = scenario.controller
+        system = builder.AddNamedSystem(self.system_name, _Constant(config.levels))
+        builder.Connect(sensed, system.GetInputPort("sensed"))
+        return ControllerWiring(
+            system, Actuation.THRUSTER_COMMANDS, system.GetOutputPort("command"),
+            config.control_period_s,
+        )  # fmt: skip
+
+
+@pytest.fixture(scope="module", autouse=True)
+def registered():
+    register_controller(ConstantAccelerationPlugin())
+    register_controller(FixedLevelsPlugin())
+    yield
+    assert {"ConstantAcceleration", "FixedLevels"} <= {p.tag for p in controller_plugins()}
+
+
+def _run(tmp_path, controller_yaml: str, extra: str = "") -> tuple[int, dict, dict]:
+    scenario = tmp_path / "scenario.yaml"
+    scenario.write_text(
+        "orbit: {gravity: free_space}\n"
+        "chaser: {p_LC_L: [0.0, -20.0, 0.0], v_LC_L: [0.0, 0.0, 0.0], mass_kg: 400.0}\n"
+        "target: {w_IT_T_deg_s: [0.0, 0.0, 0.0]}\n"
+        f"thrusters: {{isp_s: {ISP_S}}}\n"
+        f"controller: {controller_yaml}\n"
+        "duration_s: 20.0\nlog_period_s: 1.0\n" + extra
+    )
+    out = tmp_path / "out"
+    code = cli.main(["run", str(scenario), "--out", str(out), "--no-record"])
+    summary = json.loads((out / "summary.json").read_text())
+    log = dict(np.load(out / "log.npz"))
+    return code, summary, log
+
+
+def test_ideal_acceleration_controller_defined_in_a_test_flies_through_rpod_run(tmp_path):
+    code, summary, log = _run(tmp_path, "!ConstantAcceleration {a_L: [0.0, 0.01, 0.002]}")
+    assert code == 0
+    a = np.array([0.0, 0.01, 0.002])
+    t = log["t"][-1]
+    assert t == pytest.approx(20.0)
+    # Tolerance: runge_kutta3 at accuracy 1e-6 integrates a quadratic exactly up to rounding,
+    # the force steps once per control period (none: the command is constant).
+    np.testing.assert_allclose(log["p_LC_L"][-1], [0.0, -20.0, 0.0] + 0.5 * a * t * t, atol=1e-6)
+    assert summary["delta_v_m_s"] == pytest.approx(np.linalg.norm(a) * t, rel=1e-6)
+    assert summary["moved_m"] == pytest.approx(0.5 * np.linalg.norm(a) * t * t, rel=1e-6)
+    assert summary["mission"] == {"success": True, "outcome": f"moved {summary['moved_m']:.2f} m"}
+    assert "commanded_acceleration_L" in log
+
+
+def test_ideal_path_bounds_the_command(tmp_path):
+    _, summary, log = _run(
+        tmp_path, "!ConstantAcceleration {a_L: [0.0, 0.2, 0.0], limit_m_s2: 0.05}"
+    )
+    # Box bound 0.05 m/s^2: |a_y| is clipped from 0.2.
+    assert log["p_LC_L"][-1][1] == pytest.approx(-20.0 + 0.5 * 0.05 * 20.0**2, abs=1e-6)
+    assert summary["delta_v_m_s"] == pytest.approx(0.05 * 20.0, rel=1e-6)
+
+
+def test_per_thruster_levels_controller_flies_through_pwm_and_the_bank(tmp_path):
+    from rpod.models.thrusters import rcs_cube_12, wrench_matrix
+
+    layout = rcs_cube_12(1.5, 10.0, ISP_S)
+    B = wrench_matrix(layout)  # (6, 12): [tau; f] per unit level
+    levels = np.zeros(12)
+    plus_y = [k for k in range(12) if B[4, k] > 0.5 * layout.max_thrusts_N[k]]
+    levels[plus_y] = 0.5  # half duty on every +y thruster: a pure +y force, no torque
+    assert np.allclose(B[:3] @ levels, 0.0, atol=1e-9) and np.allclose(B[3:] @ levels, [0, 10, 0])
+    code, summary, log = _run(tmp_path, f"!FixedLevels {{levels: {levels.tolist()}}}")
+    assert code == 0
+    # Every thruster's impulse is level x thrust x t (PWM: 5 of 10 slots, exact).
+    impulse = float(levels @ layout.max_thrusts_N) * 20.0
+    propellant = impulse / (STANDARD_GRAVITY_M_S2 * ISP_S)
+    assert summary["propellant_kg"] == pytest.approx(propellant, rel=1e-9)
+    # Rocket equation along +y (one Isp, one direction): exact whatever the pulse pattern.
+    speed = STANDARD_GRAVITY_M_S2 * ISP_S * math.log(400.0 / (400.0 - propellant))
+    np.testing.assert_allclose(log["v_LC_L"][-1], [0.0, speed, 0.0], atol=1e-9)
+
+
+def test_unknown_tag_is_one_line_naming_the_known_ones(tmp_path, capsys):
+    scenario = tmp_path / "bad.yaml"
+    scenario.write_text("controller: !NoSuchController {}\n")
+    assert cli.main(["run", str(scenario), "--out", str(tmp_path / "out")]) == 2
+    line = capsys.readouterr().err.strip()
+    assert "\n" not in line and "controller: unknown tag !NoSuchController" in line
+    assert "!HoldPoint" in line and "!ConstantAcceleration" in line
