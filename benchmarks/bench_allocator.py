@@ -91,9 +91,7 @@ class ReferenceSolver:
         self._B, self._c = B, c
 
     def solve(self, w, minimize_fuel=True):
-        return allocate_duty_reference(
-            self._B, w, minimize_fuel=minimize_fuel, fuel_cost=self._c
-        )
+        return allocate_duty_reference(self._B, w, minimize_fuel=minimize_fuel, fuel_cost=self._c)
 
 
 def old_calc_clipped(self, context, value):
@@ -139,17 +137,23 @@ def allocation_rows(cases: int, repeat: int) -> list[tuple]:
         start = time.perf_counter()
         allocator = DutyAllocator(B, None, c)
         build_ms = (time.perf_counter() - start) * 1e3
-        rows.append((f"{name}: DutyAllocator set-up ({allocator.basis_count} bases), once",
-                     None, build_ms * 1e3, None))
+        rows.append(
+            (
+                f"{name}: DutyAllocator set-up ({allocator.basis_count} bases), once",
+                None,
+                build_ms * 1e3,
+                None,
+            )
+        )
         for kind in ("feasible", "infeasible"):
             inputs = wrenches(B, kind, cases, seed=1 if kind == "feasible" else 2)
             fit, fuel = check_agreement(B, c, inputs)
             allocate_duty(B, inputs[0], fuel_cost=c)  # builds its cached allocator (untimed)
             t = per_call_us(
                 {
-                    "reference": lambda w: allocate_duty_reference(B, w, fuel_cost=c),
+                    "reference": lambda w, B=B, c=c: allocate_duty_reference(B, w, fuel_cost=c),
                     "solver": allocator.solve,
-                    "function": lambda w: allocate_duty(B, w, fuel_cost=c),
+                    "function": lambda w, B=B, c=c: allocate_duty(B, w, fuel_cost=c),
                 },
                 inputs,
                 repeat,
@@ -159,8 +163,14 @@ def allocation_rows(cases: int, repeat: int) -> list[tuple]:
             rows.append((f"{name}, {kind}: allocate_duty", t["reference"], t["function"], None))
             if kind == "feasible":
                 clp = per_call_us({"clp": drake_clp_lp(B, c)}, inputs, repeat)["clp"]
-                rows.append((f"{name}, {kind}: [info] LP only, prebuilt Drake program + Clp",
-                             t["reference"], clp, None))
+                rows.append(
+                    (
+                        f"{name}, {kind}: [info] LP only, prebuilt Drake program + Clp",
+                        t["reference"],
+                        clp,
+                        None,
+                    )
+                )
     return rows
 
 
@@ -198,8 +208,10 @@ def system_rows(cases: int, repeat: int) -> list[tuple]:
             context = bank.CreateDefaultContext()
             fixed = bank.get_input_port(0).FixValue(context, np.zeros(12))
             value = AbstractValue.Make(np.zeros(bank._clipped_size))
-            outputs = [bank.GetOutputPort(p) for p in
-                       ("body_wrench", "propellant_mass_flow", "command_clipped")]
+            outputs = [
+                bank.GetOutputPort(p)
+                for p in ("body_wrench", "propellant_mass_flow", "command_clipped")
+            ]
 
             def calc(u, bank=bank, fixed=fixed, context=context, value=value):
                 fixed.GetMutableData().set_value(u)
@@ -212,17 +224,29 @@ def system_rows(cases: int, repeat: int) -> list[tuple]:
 
             clipped[which], full[which] = calc, evaluate
         t = per_call_us(clipped, commands, repeat)
-        rows.append((f"ThrusterBank._calc_clipped, {layout_name}, PWM on/off command",
-                     t["before"], t["after"], None))
+        rows.append(
+            (
+                f"ThrusterBank._calc_clipped, {layout_name}, PWM on/off command",
+                t["before"],
+                t["after"],
+                None,
+            )
+        )
         t = per_call_us(full, commands, repeat)
-        rows.append((f"ThrusterBank, 3 outputs per new command, {layout_name}",
-                     t["before"], t["after"], None))
+        rows.append(
+            (
+                f"ThrusterBank, 3 outputs per new command, {layout_name}",
+                t["before"],
+                t["after"],
+                None,
+            )
+        )
     return rows
 
 
 def closed_loop_rows(duration_s: float) -> list[tuple]:
     """The hold_point scenario, shortened: whole-simulation wall time before and after."""
-    from rpod.diagrams.builder import simulate
+    from rpod.diagrams.simulate import simulate
     from rpod.scenarios.loader import load_scenario
 
     _, scenario = load_scenario("hold_point")
@@ -257,17 +281,25 @@ def closed_loop_rows(duration_s: float) -> list[tuple]:
         DutyAllocator.solve, ThrusterBank._calc_clipped = originals
     before, after = min(walls["before"]), min(walls["after"])
     share = counts["infeasible"] / max(counts["calls"], 1)
-    return [(
-        f"hold_point scenario, {duration_s:.0f} s simulated, whole run (s, best of 2; "
-        f"{counts['calls']} allocations, {100 * share:.0f} % infeasible)",
-        before * 1e6, after * 1e6, "s",
-    )]
+    return [
+        (
+            (
+                f"hold_point scenario, {duration_s:.0f} s simulated, whole run (s, best of 2; "
+                f"{counts['calls']} allocations, {100 * share:.0f} % infeasible)"
+            ),
+            before * 1e6,
+            after * 1e6,
+            "s",
+        )
+    ]
 
 
 def format_table(rows: list[tuple]) -> list[str]:
     width = max(len(r[0]) for r in rows)
-    lines = [f"{'case':<{width}}  {'before':>10}  {'after':>10}  {'ratio':>7}",
-             f"{'':-<{width}}  {'':->10}  {'':->10}  {'':->7}"]
+    lines = [
+        f"{'case':<{width}}  {'before':>10}  {'after':>10}  {'ratio':>7}",
+        f"{'':-<{width}}  {'':->10}  {'':->10}  {'':->7}",
+    ]
     for name, before, after, unit in rows:
         scale, suffix = (1e-6, " s") if unit == "s" else (1.0, " us")
         b = "" if before is None else f"{before * scale:.1f}{suffix}"
@@ -282,19 +314,27 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cases", type=int, default=200, help="random wrenches per case")
     parser.add_argument("--repeat", type=int, default=5, help="interleaved rounds per case")
-    parser.add_argument("--duration", type=float, default=60.0,
-                        help="simulated seconds of the closed-loop case (0: skip it)")
+    parser.add_argument(
+        "--duration",
+        type=float,
+        default=60.0,
+        help="simulated seconds of the closed-loop case (0: skip it)",
+    )
     args = parser.parse_args()
     rows = allocation_rows(args.cases, args.repeat) + system_rows(args.cases, args.repeat)
     if args.duration > 0:
         rows += closed_loop_rows(args.duration)
     lines = [
-        "Wrench allocation and thruster bank: before (scipy reference, former bank code) vs "
-        "after, same run.",
-        f"Machine: {platform.processor() or platform.machine()}, Python "
-        f"{platform.python_version()}; `python benchmarks/bench_allocator.py --cases "
-        f"{args.cases} --repeat {args.repeat} --duration {args.duration:g}`; per-call times are "
-        f"medians of {args.repeat} interleaved rounds of {args.cases} calls.",
+        (
+            "Wrench allocation and thruster bank: before (scipy reference, former bank code) vs "
+            "after, same run."
+        ),
+        (
+            f"Machine: {platform.processor() or platform.machine()}, Python "
+            f"{platform.python_version()}; `python benchmarks/bench_allocator.py --cases "
+            f"{args.cases} --repeat {args.repeat} --duration {args.duration:g}`; per-call times are "
+            f"medians of {args.repeat} interleaved rounds of {args.cases} calls."
+        ),
         "",
         *format_table(rows),
     ]

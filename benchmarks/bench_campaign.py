@@ -65,7 +65,7 @@ def plan(folder: pathlib.Path, name: str, text: str):
 
 def direct_seconds(campaign, runs) -> float:
     """The reference: the same runs simulated one after the other in this process."""
-    from rpod.diagrams.builder import simulate
+    from rpod.diagrams.simulate import simulate
     from rpod.scenarios.campaign import apply_overrides
 
     simulate(apply_overrides(campaign.base, runs[0].overrides))  # warm caches
@@ -89,11 +89,17 @@ def engine(campaign, runs, folder: pathlib.Path, **options):
 @contextlib.contextmanager
 def dask_cluster(folder: pathlib.Path, workers: int):
     """A scheduler and `workers` workers as separate processes on 127.0.0.1."""
-    from distributed import Client
 
     processes = []
     scheduler_file = folder / f"scheduler-{time.monotonic_ns()}.json"
-    log = open(folder / "cluster.log", "a")
+    with open(folder / "cluster.log", "a") as log:  # the processes write it until the end
+        yield from _cluster_processes(folder, workers, scheduler_file, log, processes)
+
+
+def _cluster_processes(folder, workers, scheduler_file, log, processes):
+    """The body of dask_cluster: starts the processes, yields the address, kills them."""
+    from distributed import Client
+
     try:
         processes.append(
             subprocess.Popen(
@@ -158,7 +164,7 @@ def _pool_init():
 
 
 def _pool_run(scenario):
-    from rpod.diagrams.builder import simulate
+    from rpod.diagrams.simulate import simulate
 
     return simulate(scenario).summary["status"]
 
@@ -192,13 +198,16 @@ def overhead_table(folder: pathlib.Path, count: int, repeat: int) -> list[str]:
     with dask_cluster(folder, 1) as address:
         remote = [engine(campaign, runs, folder, scheduler=address) for _ in range(repeat)]
     best = min(remote, key=lambda outcome: steady_state(outcome, count))
-    rows.append(("engine, Dask scheduler + 1 worker (separate processes)",
-                 steady_state(best, count), best))
+    rows.append(
+        ("engine, Dask scheduler + 1 worker (separate processes)", steady_state(best, count), best)
+    )
     lines = [
         f"## Per-run cost of a near-empty run (coast, 1 s simulated; {count} runs, 1 worker)",
         "",
-        "| how | ms per run | engine overhead (ms per run) | ratio to reference "
-        "| cluster start (s) | first result (s) |",
+        (
+            "| how | ms per run | engine overhead (ms per run) | ratio to reference "
+            "| cluster start (s) | first result (s) |"
+        ),
         "| --- | ---: | ---: | ---: | ---: | ---: |",
     ]
     for name, per_run, outcome in rows:
@@ -219,18 +228,34 @@ def speedup_table(folder: pathlib.Path, heavy: int, repeat: int) -> list[str]:
     def best(measure):
         return min(measure() for _ in range(repeat))
 
-    rows = [("multiprocessing pool, warm (reference)",
-             best(lambda: pool_seconds(campaign, runs, 1)),
-             best(lambda: pool_seconds(campaign, runs, 2)))]
-    rows.append(("engine, LocalCluster (run phase, each runner's start included)",
-                 best(lambda: engine(campaign, runs, folder, workers=1).run_phase_s),
-                 best(lambda: engine(campaign, runs, folder, workers=2).run_phase_s)))
+    rows = [
+        (
+            "multiprocessing pool, warm (reference)",
+            best(lambda: pool_seconds(campaign, runs, 1)),
+            best(lambda: pool_seconds(campaign, runs, 2)),
+        )
+    ]
+    rows.append(
+        (
+            "engine, LocalCluster (run phase, each runner's start included)",
+            best(lambda: engine(campaign, runs, folder, workers=1).run_phase_s),
+            best(lambda: engine(campaign, runs, folder, workers=2).run_phase_s),
+        )
+    )
     with dask_cluster(folder, 1) as address:
         one = best(lambda: engine(campaign, runs, folder, scheduler=address).run_phase_s)
     with dask_cluster(folder, 2) as address:
         two = best(lambda: engine(campaign, runs, folder, scheduler=address).run_phase_s)
-    rows.append(("engine, Dask scheduler + workers (separate processes; runners warm after "
-                 "the first repeat)", one, two))
+    rows.append(
+        (
+            (
+                "engine, Dask scheduler + workers (separate processes; runners warm after "
+                "the first repeat)"
+            ),
+            one,
+            two,
+        )
+    )
     reference_speedup = rows[0][1] / rows[0][2]
     lines = [
         f"## Speed-up from 1 to 2 workers ({heavy} runs of hold_point, 20 s simulated)",
@@ -239,8 +264,10 @@ def speedup_table(folder: pathlib.Path, heavy: int, repeat: int) -> list[str]:
         "| --- | ---: | ---: | ---: | ---: |",
     ]
     for name, one, two in rows:
-        lines.append(f"| {name} | {one:.2f} | {two:.2f} | {one / two:.2f} | "
-                     f"{(one / two) / reference_speedup:.2f} |")
+        lines.append(
+            f"| {name} | {one:.2f} | {two:.2f} | {one / two:.2f} | "
+            f"{(one / two) / reference_speedup:.2f} |"
+        )
     return lines
 
 
@@ -260,12 +287,14 @@ def main():
     lines = [
         "# Campaign engine benchmark",
         "",
-        f"Machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, Python "
-        f"{platform.python_version()}; 1-minute load average {load_before:.2f} at the start and "
-        f"{load_after:.2f} at the end (other processes on the machine share its cores: the "
-        f"pool's speed-up below shows what was left); "
-        f"`python benchmarks/bench_campaign.py --runs {args.runs} --heavy {args.heavy} "
-        f"--repeat {args.repeat}` (best of {args.repeat}).",
+        (
+            f"Machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, Python "
+            f"{platform.python_version()}; 1-minute load average {load_before:.2f} at the start and "
+            f"{load_after:.2f} at the end (other processes on the machine share its cores: the "
+            f"pool's speed-up below shows what was left); "
+            f"`python benchmarks/bench_campaign.py --runs {args.runs} --heavy {args.heavy} "
+            f"--repeat {args.repeat}` (best of {args.repeat})."
+        ),
         "",
         *overhead,
         "",

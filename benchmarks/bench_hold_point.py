@@ -39,10 +39,11 @@ import time
 from collections import defaultdict
 
 import numpy as np
-from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorConfig
+from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 
 import rpod.diagrams.builder as builder_module
-from rpod.diagrams.builder import build_diagram, simulate
+from rpod.diagrams.builder import build_diagram
+from rpod.diagrams.simulate import simulate
 from rpod.models.gravity import J2_EARTH, MU_EARTH_M3_S2, R_EARTH_M
 from rpod.scenarios.loader import load_scenario
 from rpod.systems.split_truth import SplitTruth
@@ -184,17 +185,34 @@ def plain_rhs(x, thrust, gravity, J_T, J_T_inv, J_C, J_C_inv):
     hz = J[6] * wcx + J[7] * wcy + J[8] * wcz
     gx, gy, gz = hy * wcz - hz * wcy + taux, hz * wcx - hx * wcz + tauy, hx * wcy - hy * wcx + tauz
     return [
-        vx, vy, vz, aT[0], aT[1], aT[2], sx, sy, sz,
-        aC[0] - aT[0] + fIx * im, aC[1] - aT[1] + fIy * im, aC[2] - aT[2] + fIz * im, -mdot,
-        0.5 * (-tx * wtx - ty * wty - tz * wtz), 0.5 * (tw * wtx + ty * wtz - tz * wty),
-        0.5 * (tw * wty + tz * wtx - tx * wtz), 0.5 * (tw * wtz + tx * wty - ty * wtx),
-        Ji[0] * ex + Ji[1] * ey + Ji[2] * ez, Ji[3] * ex + Ji[4] * ey + Ji[5] * ez,
+        vx,
+        vy,
+        vz,
+        aT[0],
+        aT[1],
+        aT[2],
+        sx,
+        sy,
+        sz,
+        aC[0] - aT[0] + fIx * im,
+        aC[1] - aT[1] + fIy * im,
+        aC[2] - aT[2] + fIz * im,
+        -mdot,
+        0.5 * (-tx * wtx - ty * wty - tz * wtz),
+        0.5 * (tw * wtx + ty * wtz - tz * wty),
+        0.5 * (tw * wty + tz * wtx - tx * wtz),
+        0.5 * (tw * wtz + tx * wty - ty * wtx),
+        Ji[0] * ex + Ji[1] * ey + Ji[2] * ez,
+        Ji[3] * ex + Ji[4] * ey + Ji[5] * ez,
         Ji[6] * ex + Ji[7] * ey + Ji[8] * ez,
-        0.5 * (-cx * wcx - cy * wcy - cz * wcz), 0.5 * (cw * wcx + cy * wcz - cz * wcy),
-        0.5 * (cw * wcy + cz * wcx - cx * wcz), 0.5 * (cw * wcz + cx * wcy - cy * wcx),
-        Jc[0] * gx + Jc[1] * gy + Jc[2] * gz, Jc[3] * gx + Jc[4] * gy + Jc[5] * gz,
+        0.5 * (-cx * wcx - cy * wcy - cz * wcz),
+        0.5 * (cw * wcx + cy * wcz - cz * wcy),
+        0.5 * (cw * wcy + cz * wcx - cx * wcz),
+        0.5 * (cw * wcz + cx * wcy - cy * wcx),
+        Jc[0] * gx + Jc[1] * gy + Jc[2] * gz,
+        Jc[3] * gx + Jc[4] * gy + Jc[5] * gz,
         Jc[6] * gx + Jc[7] * gy + Jc[8] * gz,
-    ]  # fmt: skip
+    ]
 
 
 def inertias(scenario):
@@ -205,20 +223,9 @@ def inertias(scenario):
 
 
 def make_simulator(diagram, scenario) -> Simulator:
-    """A Simulator configured as rpod.diagrams.builder.simulate configures it."""
+    """A Simulator configured as rpod.diagrams.simulate.simulate configures it."""
     simulator = Simulator(diagram)
-    integrator = scenario.integrator
-    ApplySimulatorConfig(
-        SimulatorConfig(
-            integration_scheme=integrator.scheme,
-            accuracy=integrator.accuracy,
-            max_step_size=integrator.max_step_s,
-            use_error_control=integrator.scheme != "runge_kutta2",
-            target_realtime_rate=0.0,
-            publish_every_time_step=False,
-        ),
-        simulator,
-    )
+    ApplySimulatorConfig(scenario.simulator, simulator)
     return simulator
 
 

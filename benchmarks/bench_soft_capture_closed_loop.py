@@ -8,7 +8,7 @@ figure is measured in this run, and ratios are to a reference measured in the sa
 - Runs: the bundled ``soft_capture`` scenario (70 s) and the first ``--samples`` sampled starts
   of the bundled campaign ``soft_capture_250`` (120 s each), built as the campaign harness
   builds them (``apply_overrides(campaign.base, run.overrides)``), simulated in this process
-  with ``rpod.diagrams.builder.simulate`` (no recording, no plots).
+  with ``rpod.diagrams.simulate.simulate`` (no recording, no plots).
 - Reference: the bundled ``hold_point`` scenario with its ``duration_s`` set to the soft-capture
   run's. It has the same truth (two-body + J2 translation, torque-free tumble), the same thruster
   bank (12 RCS thrusters, allocator, PWM at 10 Hz with 10 slots) and integrator
@@ -44,7 +44,7 @@ import statistics
 import sys
 import time
 
-from rpod.diagrams.builder import simulate
+from rpod.diagrams.simulate import simulate
 from rpod.scenarios.campaign import apply_overrides, load_campaign, plan_runs
 from rpod.scenarios.loader import load_scenario
 

@@ -39,7 +39,8 @@ import time
 
 import numpy as np
 
-from rpod.diagrams.builder import body_polytopes, target_rotation_in_lvlh
+from rpod.diagrams.controllers.soft_capture import controller_config
+from rpod.diagrams.scenario import body_polytopes, target_rotation_in_lvlh
 from rpod.models.frames import quaternion_wxyz, rotation_from_rpy_deg, rotation_from_wxyz
 from rpod.planners import soft_capture
 from rpod.planners.pointing import pointing_attitudes
@@ -50,8 +51,16 @@ from rpod.scenarios.campaign import apply_overrides, load_campaign, plan_runs
 
 RESULTS = pathlib.Path(__file__).parent / "results" / "problem2_share.md"
 NOTES = "## What this says"
-VARIANTS = ("paper", "step1", "fuel_gamma", "closed_loop", "tumble_x2", "velocity_unrotated",
-            "cone_mixed", "authors_code")
+VARIANTS = (
+    "paper",
+    "step1",
+    "fuel_gamma",
+    "closed_loop",
+    "tumble_x2",
+    "velocity_unrotated",
+    "cone_mixed",
+    "authors_code",
+)
 _CORRECT_TERMINAL = soft_capture.terminal_targets
 
 
@@ -71,17 +80,18 @@ class MixedFrameConeSocp(SoftCaptureSocp):
 
     def set_data(self, data):
         super().set_data(data)
-        for evaluator, R_LT in zip(self._dock, data.R_LT_dock[-len(self._dock):]):
+        for evaluator, R_LT in zip(self._dock, data.R_LT_dock[-len(self._dock) :]):
             D_t_L = R_LT @ self._D_t
             A = np.vstack([self._tan_dock * (self._c_t @ R_LT.T), self._P_t])
-            b = np.concatenate([[-self._tan_dock * float(self._c_t @ R_LT.T @ D_t_L)],
-                                -self._P_t @ D_t_L])  # fmt: skip
+            b = np.concatenate(
+                [[-self._tan_dock * float(self._c_t @ R_LT.T @ D_t_L)], -self._P_t @ D_t_L]
+            )
             evaluator.UpdateCoefficients(A, b)
 
 
 def variant_setup(name: str, scenario):
     """(config, chaser hull, target hull, tumble scale) of one variant for one scenario."""
-    block = scenario.controller.soft_capture
+    block = controller_config(scenario)  # the loop's config with the derived planner config
     chaser_hull, target_hull = body_polytopes(scenario)
     config = block.planner
     if name == "step1":
@@ -98,10 +108,15 @@ def problem2_alpha(planner, plan, x0, prediction, R_LC0):
     """alpha (N,) along Problem 2's solution at the plan's N (None if Problem 2 fails there)."""
     c, N = planner.config, plan.N
     R_LT = np.array([rotation_from_wxyz(q) for q in prediction.q_LT[:N]])
-    p_star, v_star = soft_capture.terminal_targets(c, R_LT[N - 1], prediction.w_IT_T[N - 1],
-                                      prediction.n_orbit)  # fmt: skip
-    data = SocpData(x0=x0, R_LT_dock=R_LT[max(0, N - c.docking_knots):N],
-                    p_terminal_L=p_star, v_terminal_L=v_star)  # fmt: skip
+    p_star, v_star = soft_capture.terminal_targets(
+        c, R_LT[N - 1], prediction.w_IT_T[N - 1], prediction.n_orbit
+    )
+    data = SocpData(
+        x0=x0,
+        R_LT_dock=R_LT[max(0, N - c.docking_knots) : N],
+        p_terminal_L=p_star,
+        v_terminal_L=v_star,
+    )
     problem2, _ = planner.programs(N)
     problem2.set_data(data)
     solution = problem2.solve()
@@ -115,9 +130,10 @@ def problem2_alpha(planner, plan, x0, prediction, R_LC0):
 def study(variant: str, runs, base, planners: dict) -> list[dict]:
     """One row per start: the planner's outcome and Problem 2's alpha at the returned N."""
     soft_capture.terminal_targets = (
-        _unrotated_terminal if variant in ("velocity_unrotated", "authors_code")
+        _unrotated_terminal
+        if variant in ("velocity_unrotated", "authors_code")
         else _CORRECT_TERMINAL
-    )  # fmt: skip
+    )
     soft_capture.SoftCaptureSocp = (
         MixedFrameConeSocp if variant in ("cone_mixed", "authors_code") else SoftCaptureSocp
     )
@@ -132,19 +148,25 @@ def study(variant: str, runs, base, planners: dict) -> list[dict]:
         x0 = np.concatenate([scenario.chaser.p_LC_L, scenario.chaser.v_LC_L]).astype(float)
         w_IT_T = tumble_scale * np.radians(np.asarray(scenario.target.w_IT_T_deg_s, float))
         prediction = predict_for_planner(
-            config, quaternion_wxyz(target_rotation_in_lvlh(scenario)), w_IT_T,
+            config,
+            quaternion_wxyz(target_rotation_in_lvlh(scenario)),
+            w_IT_T,
             np.asarray(scenario.target.inertia_kg_m2, float),
-        )  # fmt: skip
+        )
         R_LC0 = rotation_from_rpy_deg(scenario.chaser.rpy_LC_deg)
         start = time.perf_counter()
         plan = planner.plan(x0, prediction, R_LC0=R_LC0)
         row = {
-            "index": run.sample_index, "status": plan.status, "N": plan.N,
-            "scp": plan.scp_iterations, "range_m": float(np.linalg.norm(x0[:3])),
+            "index": run.sample_index,
+            "status": plan.status,
+            "N": plan.N,
+            "scp": plan.scp_iterations,
+            "range_m": float(np.linalg.norm(x0[:3])),
             "tumble_deg_s": float(np.degrees(np.linalg.norm(w_IT_T))),
-            "wall_s": time.perf_counter() - start, "p2_min_alpha": np.nan,
+            "wall_s": time.perf_counter() - start,
+            "p2_min_alpha": np.nan,
             "p2_bad_knots": None,
-        }  # fmt: skip
+        }
         if plan.N >= 2:
             alpha = problem2_alpha(planner, plan, x0, prediction, R_LC0)
             if alpha is not None:
@@ -212,8 +234,8 @@ def main() -> None:
         ),
         "",
         (
-            "Shares are of successful plans, as the paper gives them. \"Problem 2 collides at "
-            "the tail\": of the plans whose Problem 2 solution has alpha <= 1 somewhere, those "
+            'Shares are of successful plans, as the paper gives them. "Problem 2 collides at '
+            'the tail": of the plans whose Problem 2 solution has alpha <= 1 somewhere, those '
             "whose first such knot is among the last 15."
         ),
         "",
@@ -231,8 +253,14 @@ def main() -> None:
             f"| {t['median_from_end']:.0f} | {t['wall_median']:.3f} | "
             f"{', '.join(t['statuses']) or '--'} |"
         )
-    lines += ["", ("Paper 000 (Sec. VI-B): success 93.2%, Problem 2 alone 8.6%, <= 1 SCP "
-                   "iteration 54.9%, <= 5 90.5%."), ""]  # fmt: skip
+    lines += [
+        "",
+        (
+            "Paper 000 (Sec. VI-B): success 93.2%, Problem 2 alone 8.6%, <= 1 SCP "
+            "iteration 54.9%, <= 5 90.5%."
+        ),
+        "",
+    ]
     # Hand-written interpretation below NOTES in an existing file is kept.
     if args.out.exists() and NOTES in args.out.read_text():
         lines.append(NOTES + args.out.read_text().split(NOTES, 1)[1].rstrip("\n"))

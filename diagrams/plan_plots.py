@@ -50,9 +50,10 @@ def _hull_faces(vertices: np.ndarray) -> list[np.ndarray]:
 def _draw_hull(ax, vertices_body, R, p, colour, alpha) -> None:
     posed = vertices_body @ R.T + p
     ax.add_collection3d(
-        Poly3DCollection(_hull_faces(posed), facecolor=(*colour, alpha), edgecolor=(*colour, 0.6),
-                         linewidth=0.3)
-    )  # fmt: skip
+        Poly3DCollection(
+            _hull_faces(posed), facecolor=(*colour, alpha), edgecolor=(*colour, 0.6), linewidth=0.3
+        )
+    )
 
 
 def _cone_lines(ax, R, apex_T, axis_T, half_angle, length, colour) -> None:
@@ -86,8 +87,11 @@ def _figure_trajectory(plan: Mapping, title: str) -> Figure:
     theta = float(plan["theta_dock"])
     N = len(r)
     fig = Figure(figsize=(13.0, 6.0))
-    fig.suptitle(f"{title} — planned trajectory (paper 000 Fig. 5)" if title else
-                 "Planned trajectory (paper 000 Fig. 5)")  # fmt: skip
+    fig.suptitle(
+        f"{title} — planned trajectory (paper 000 Fig. 5)"
+        if title
+        else "Planned trajectory (paper 000 Fig. 5)"
+    )
     chaser_knots = np.unique(np.r_[np.linspace(0, N - 1, 5).round().astype(int), N - 1])
 
     ax = fig.add_subplot(1, 2, 1, projection="3d")
@@ -128,8 +132,11 @@ def _figure_thrust(plan: Mapping, title: str) -> Figure:
     u = np.asarray(plan["u"], float)
     fig = Figure(figsize=(10.0, 6.0))
     axes = fig.subplots(2, 1, sharex=True)
-    fig.suptitle(f"{title} — thrust profile (paper 000 Fig. 6)" if title else
-                 "Thrust profile (paper 000 Fig. 6)")  # fmt: skip
+    fig.suptitle(
+        f"{title} — thrust profile (paper 000 Fig. 6)"
+        if title
+        else "Thrust profile (paper 000 Fig. 6)"
+    )
     edges = t  # u_k is held over [t_k, t_k+1)
     for i, name in enumerate("xyz"):
         axes[0].stairs(u[:, i], edges, color=_COMPONENT_COLOURS[i], label=f"u_{name} (L)")
@@ -150,12 +157,21 @@ def _figure_alpha(plan: Mapping, title: str) -> Figure:
     alpha = np.asarray(plan["alpha"], float)
     fig = Figure(figsize=(10.0, 4.5))
     ax = fig.subplots()
-    fig.suptitle(f"{title} — collision metric (paper 000 Figs. 7, 9)" if title else
-                 "Collision metric (paper 000 Figs. 7, 9)")  # fmt: skip
+    fig.suptitle(
+        f"{title} — collision metric (paper 000 Figs. 7, 9)"
+        if title
+        else "Collision metric (paper 000 Figs. 7, 9)"
+    )
     ax.plot(t, alpha, "o-", ms=3, color="tab:purple", label="alpha_k (planned)")
     if "alpha_check" in plan:
-        ax.plot(t, np.asarray(plan["alpha_check"], float), "x", ms=4, color="k",
-                label="alpha_k (independent LP)")  # fmt: skip
+        ax.plot(
+            t,
+            np.asarray(plan["alpha_check"], float),
+            "x",
+            ms=4,
+            color="k",
+            label="alpha_k (independent LP)",
+        )
     ax.axhline(1.0, color="tab:red", ls="-", label="alpha = 1 (contact)")
     ax.axhline(float(plan["alpha_min"]), color="tab:orange", ls="--", label="alpha_min (soft)")
     if np.all(alpha > 0) and alpha.max() / max(alpha.min(), 1e-12) > 20:
@@ -173,15 +189,17 @@ def _figure_state(plan: Mapping, title: str) -> Figure:
     r, v = x[:, :3], x[:, 3:]
     fig = Figure(figsize=(10.0, 7.5))
     axes = fig.subplots(3, 1, sharex=True)
-    fig.suptitle(f"{title} — range, speed, line of sight" if title else
-                 "Range, speed, line of sight")  # fmt: skip
+    fig.suptitle(
+        f"{title} — range, speed, line of sight" if title else "Range, speed, line of sight"
+    )
     axes[0].plot(t, np.linalg.norm(r, axis=1), color="k", label="|r_k|")
     axes[0].set_ylabel("range [m]")
     axes[1].plot(t, np.linalg.norm(v, axis=1), color="k", label="|v_k|")
     axes[1].axhline(float(plan["v_max"]), color="tab:red", ls="--", label="v_max (10)")
     axes[1].set_ylabel("speed [m/s]")
-    angles = np.arctan2(np.linalg.norm(np.cross(r[:-1], r[1:]), axis=1),
-                        np.sum(r[:-1] * r[1:], axis=1))  # fmt: skip
+    angles = np.arctan2(
+        np.linalg.norm(np.cross(r[:-1], r[1:]), axis=1), np.sum(r[:-1] * r[1:], axis=1)
+    )
     axes[2].stairs(np.degrees(angles), t, color="k", label="angle(r_k, r_k+1)")
     limit = np.degrees(float(plan["omega_max"]) * float(plan["dt"]))
     axes[2].axhline(limit, color="tab:red", ls="--", label="omega_max dt (12)")

@@ -13,8 +13,10 @@ import math
 import typing
 
 import numpy as np
+from pydrake.systems.analysis import SimulatorConfig
 
 from rpod.diagrams import controller_seam
+from rpod.models import thrusters as presets
 from rpod.models.frames import rotation_from_rpy_deg, rotation_from_wxyz
 from rpod.models.gravity import GRAVITY_MODELS, MIN_ALTITUDE_M
 from rpod.models.rigid_body import validate_inertia
@@ -24,13 +26,19 @@ from rpod.models.shapes import (
     soft_capture_chaser_hull,
     soft_capture_target_hull,
 )
+from rpod.models.thrusters import ThrusterLayout
 from rpod.planners.pointing import min_rotation
 from rpod.systems.orbital_dynamics import OrbitConfig
 
 THRUSTER_LAYOUTS = ("rcs_cube_12", "planar_8", "gimbaled_cuboid_8")
 CHASER_SHAPES = ("box", "soft_capture_chaser")
 TARGET_SHAPES = ("box", "soft_capture_target")
-INTEGRATION_SCHEMES = ("runge_kutta2", "runge_kutta3", "runge_kutta5", "bogacki_shampine3")
+INTEGRATION_SCHEMES = (
+    "runge_kutta2",
+    "runge_kutta3",
+    "runge_kutta5",
+    "bogacki_shampine3",
+)  # explicit: the truth is not stiff
 
 # Bounds on the work one scenario may ask for (README, "What rpod guarantees"). Each is far
 # beyond any rendezvous scenario and far below what would hang the run or exhaust memory.
@@ -156,20 +164,18 @@ class ThrustersConfig:
     min_on_slots: int = 0
 
 
-@dataclasses.dataclass
-class IntegratorConfig:
-    """Numerical integration of the continuous truth.
-
-    Args:
-        scheme: Drake integration scheme; runge_kutta3 suits PWM (steps end at every slot
-            anyway), runge_kutta5 suits long coasts (far fewer steps at the same accuracy).
-        accuracy: target accuracy of the error-controlled step.
-        max_step_s: upper bound on the step size [s].
-    """
-
-    scheme: str = "runge_kutta3"
-    accuracy: float = 1e-6
-    max_step_s: float = 10.0
+def default_simulator_config() -> SimulatorConfig:
+    """Drake's SimulatorConfig with rpod's defaults: runge_kutta3 (with PWM every 10 ms slot
+    ends a step anyway, and RK3 is the cheapest error-controlled scheme), accuracy 1e-6, steps
+    of at most 10 s, as fast as possible, no publish per step."""
+    return SimulatorConfig(
+        integration_scheme="runge_kutta3",
+        max_step_size=10.0,
+        accuracy=1e-6,
+        use_error_control=True,
+        target_realtime_rate=0.0,
+        publish_every_time_step=False,
+    )
 
 
 @dataclasses.dataclass
@@ -223,7 +229,10 @@ class Scenario:
         duration_s: simulated time [s]; with stop.at_plan_end, the most simulated time.
         stop: ending the run at the controller's planned end (stop.at_plan_end).
         log_period_s: sample period of every logged signal [s].
-        integrator: numerical integration settings.
+        simulator: Drake's own SimulatorConfig (integration_scheme, accuracy, max_step_size,
+            use_error_control, target_realtime_rate, publish_every_time_step; start_time
+            must stay 0); runge_kutta5 suits long coasts (far fewer steps at the same
+            accuracy).
         visualization: Meshcat scene and recording settings.
     """
 
@@ -238,7 +247,7 @@ class Scenario:
     duration_s: float = 600.0
     stop: StopConfig = dataclasses.field(default_factory=StopConfig)
     log_period_s: float = 1.0
-    integrator: IntegratorConfig = dataclasses.field(default_factory=IntegratorConfig)
+    simulator: SimulatorConfig = dataclasses.field(default_factory=default_simulator_config)
     visualization: VisualizationConfig = dataclasses.field(default_factory=VisualizationConfig)
 
 
@@ -251,6 +260,18 @@ def _refresh_controller_union() -> None:
 
 
 controller_seam.on_registry_change(_refresh_controller_union)
+
+
+def make_thruster_layout(scenario: Scenario) -> ThrusterLayout:
+    """The preset thruster layout a scenario names, with its thrust, Isp and size."""
+    config = scenario.thrusters
+    if config.layout == "rcs_cube_12":
+        return presets.rcs_cube_12(config.size_m, config.max_thrust_N, config.isp_s)
+    if config.layout == "planar_8":
+        return presets.planar_8(config.size_m, config.max_thrust_N, config.isp_s)
+    if config.layout == "gimbaled_cuboid_8":
+        return presets.gimbaled_cuboid_8(max_thrust_N=config.max_thrust_N, isp_s=config.isp_s)
+    raise ValueError(f"unknown thruster layout '{config.layout}'")
 
 
 def body_polytopes(scenario: Scenario) -> tuple[ConvexPolytope, ConvexPolytope]:
@@ -343,8 +364,9 @@ def _inertia(values, field: str) -> None:
 def _rigid_body(config, prefix: str, shapes: tuple[str, ...]) -> None:
     """Checks the inertia, shape and box size shared by ChaserConfig and TargetConfig."""
     _inertia(config.inertia_kg_m2, f"{prefix}.inertia_kg_m2")
-    _require(config.shape in shapes, f"{prefix}.shape", f"must be one of {shapes}, "
-             f"got '{config.shape}'")  # fmt: skip
+    _require(
+        config.shape in shapes, f"{prefix}.shape", f"must be one of {shapes}, got '{config.shape}'"
+    )
     size = _vector(config.size_m, f"{prefix}.size_m")
     _require(bool(np.all(size > 0)), f"{prefix}.size_m", "edge lengths must be positive")
 
@@ -374,10 +396,10 @@ def _validate_work(scenario: Scenario) -> None:
     ):
         _at_most(duration / period, MAX_SAMPLES, field, f"duration_s / {field} must be")
     _at_most(
-        duration / scenario.integrator.max_step_s,
+        duration / scenario.simulator.max_step_size,
         MAX_EVENTS,
-        "integrator.max_step_s",
-        "duration_s / integrator.max_step_s must be",
+        "simulator.max_step_size",
+        "duration_s / simulator.max_step_size must be",
     )
     _at_most(scenario.visualization.trail_max_points, MAX_SAMPLES, "visualization.trail_max_points")
     thrusters, controller = scenario.thrusters, scenario.controller
@@ -518,14 +540,29 @@ def validate_scenario(scenario: Scenario) -> None:
         "stop.hold_s",
         f"must not be negative, got {scenario.stop.hold_s}",
     )
-    integrator = scenario.integrator
+    simulator = scenario.simulator
     _require(
-        integrator.scheme in INTEGRATION_SCHEMES,
-        "integrator.scheme",
+        simulator.integration_scheme in INTEGRATION_SCHEMES,
+        "simulator.integration_scheme",
         f"must be one of {INTEGRATION_SCHEMES}",
     )
-    _positive(integrator.accuracy, "integrator.accuracy")
-    _positive(integrator.max_step_s, "integrator.max_step_s")
+    _require(
+        not (simulator.integration_scheme == "runge_kutta2" and simulator.use_error_control),
+        "simulator.use_error_control",
+        "runge_kutta2 has no error estimate: set use_error_control: false",
+    )
+    _positive(simulator.accuracy, "simulator.accuracy")
+    _positive(simulator.max_step_size, "simulator.max_step_size")
+    _require(
+        math.isfinite(simulator.target_realtime_rate) and simulator.target_realtime_rate >= 0,
+        "simulator.target_realtime_rate",
+        f"must not be negative, got {simulator.target_realtime_rate}",
+    )
+    _require(
+        simulator.start_time == 0.0,
+        "simulator.start_time",
+        f"must be 0 (every controller and PWM period starts at t = 0), got {simulator.start_time}",
+    )
     _positive(scenario.visualization.publish_period_s, "visualization.publish_period_s")
     _positive(scenario.target.corridor_length_m, "target.corridor_length_m")
     _require(

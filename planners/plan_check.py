@@ -230,17 +230,29 @@ def check_plan(
     pointing_error = _angle(axis_L, -r)
     increments = R_LC[1:] @ R_LC[:-1].transpose(0, 2, 1)
     rotvec = _rotation_vectors(increments)
-    bisector = -(r[:-1] / np.linalg.norm(r[:-1], axis=1)[:, None]
-                 + r[1:] / np.linalg.norm(r[1:], axis=1)[:, None])  # fmt: skip
+    bisector = -(
+        r[:-1] / np.linalg.norm(r[:-1], axis=1)[:, None]
+        + r[1:] / np.linalg.norm(r[1:], axis=1)[:, None]
+    )
     bisector /= np.linalg.norm(bisector, axis=1)[:, None]
     twist = np.abs(np.sum(rotvec * bisector, axis=1))
 
     # Collision metric by an independent LP at the plan's poses.
-    alpha = np.array([
-        scaling_alpha_lp(chaser_hull.A, chaser_hull.b, R_LC[k], r[k],
-                         target_hull.A, target_hull.b, R_LT[k], np.zeros(3))
-        for k in range(N)
-    ])  # fmt: skip
+    alpha = np.array(
+        [
+            scaling_alpha_lp(
+                chaser_hull.A,
+                chaser_hull.b,
+                R_LC[k],
+                r[k],
+                target_hull.A,
+                target_hull.b,
+                R_LT[k],
+                np.zeros(3),
+            )
+            for k in range(N)
+        ]
+    )
 
     return PlanCheckReport(
         dynamics_residual=float(np.abs(residual).max()),

@@ -33,11 +33,13 @@ paper's tumble limit ``v_max / |D_c + D_t|``. ``"chaser_center_of_mass"``: the p
 frame, ``n_orbit`` the LVLH rate the prediction was made with.
 """
 
+import enum
 import math
 from dataclasses import dataclass, field, fields
 
 import numpy as np
 from pydrake.math import RotationMatrix
+from pydrake.trajectories import PiecewisePolynomial
 
 from rpod.models.collision import ScalingMetricProgram
 from rpod.models.frames import rotations_from_wxyz
@@ -49,6 +51,51 @@ from rpod.planners.soft_capture_socp import SocpData, SoftCaptureSocp
 from rpod.planners.target_prediction import TargetPrediction, predict_target
 
 TERMINAL_VELOCITY_POINTS = ("chaser_capture_point", "chaser_center_of_mass")
+
+
+class PlanStatus(str, enum.Enum):
+    """What came of a planner call, in the planner's own words (a str: "success" == SUCCESS).
+
+    The first block is the planner's (SoftCapturePlan.status); the last two are the
+    predict-plan-check path's (rpod.planners.checked_plan): the target prediction failed, or
+    the independent checker rejected a plan the planner called a success. The order is fixed:
+    logs store these as codes (their index, after "none").
+    """
+
+    SUCCESS = "success"
+    INVALID_INPUT = "invalid_input"
+    TUMBLE_RATE_ABOVE_LIMIT = "tumble_rate_above_limit"
+    INITIAL_STATE_IN_COLLISION = "initial_state_in_collision"
+    NO_FEASIBLE_HORIZON = "no_feasible_horizon"
+    PROBLEM2_INFEASIBLE = "problem2_infeasible"
+    PROBLEM2_SOLVER_FAILURE = "problem2_solver_failure"
+    PROBLEM3_INFEASIBLE = "problem3_infeasible"
+    PROBLEM3_SOLVER_FAILURE = "problem3_solver_failure"
+    COLLISION_METRIC_FAILED = "collision_metric_failed"
+    SCP_MAX_ITERATIONS = "scp_max_iterations"
+    PREDICTION_FAILED = "prediction_failed"
+    CHECK_FAILED = "check_failed"
+
+
+@dataclass(frozen=True)
+class PlanTrajectories:
+    """A plan as pydrake trajectories, so that any tracker can follow any planner's result.
+
+    Times are absolute (the plan's start t0 plus the knot times).
+
+    Attributes:
+        position_L: p_LC_L (3) [m], the cubic Hermite spline through the knots' positions with
+            the knots' velocities as slopes.
+        velocity_L: v_LC_L (3) [m/s], first-order hold between the knots.
+        force_L: the planned force in L (3) [N], zero-order hold over each step (the last
+            step's force is held to the final knot).
+    """
+
+    position_L: PiecewisePolynomial
+    velocity_L: PiecewisePolynomial
+    force_L: PiecewisePolynomial
+
+
 _R_Y_PI = np.diag([-1.0, 1.0, -1.0])  # Q_y(180 deg): the capture pose relative to the target
 
 
@@ -110,10 +157,17 @@ class SoftCaptureSettings:
     def validate(self) -> None:
         """Raises ValueError naming the first bad field."""
         positive = (
-            "max_thrust_N", "max_range_m", "max_speed_m_s", "max_los_rate_rad_s",
-            "capture_position_tol_m", "capture_speed_tol_m_s", "dt_s", "slack_penalty_psi",
-            "fuel_weight_gamma", "problem2_fuel_weight",
-        )  # fmt: skip
+            "max_thrust_N",
+            "max_range_m",
+            "max_speed_m_s",
+            "max_los_rate_rad_s",
+            "capture_position_tol_m",
+            "capture_speed_tol_m_s",
+            "dt_s",
+            "slack_penalty_psi",
+            "fuel_weight_gamma",
+            "problem2_fuel_weight",
+        )
         for name in positive:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
@@ -310,10 +364,26 @@ class SoftCapturePlan:
     total_solve_time_s: float
     step_time_s: list[float] = field(default_factory=list)
 
+    def __post_init__(self):
+        self.status = PlanStatus(self.status)
+
     @property
     def success(self) -> bool:
         """True when the plan passed the hard collision test at every knot."""
-        return self.status == "success"
+        return self.status is PlanStatus.SUCCESS
+
+    def trajectories(self, t0_s: float = 0.0) -> PlanTrajectories:
+        """The plan as pydrake trajectories from t0_s (needs N >= 2 knots)."""
+        if self.N < 2:
+            raise ValueError(f"a plan of {self.N} knots has no trajectory")
+        t = t0_s + np.asarray(self.t, dtype=float)
+        p, v = self.x[:, :3].T, self.x[:, 3:].T
+        u = np.column_stack([self.u.T, self.u[-1]])  # the last force held to the final knot
+        return PlanTrajectories(
+            PiecewisePolynomial.CubicHermite(t, p, v),
+            PiecewisePolynomial.FirstOrderHold(t, v),
+            PiecewisePolynomial.ZeroOrderHold(t, u),
+        )
 
 
 def terminal_targets(
@@ -390,8 +460,11 @@ class SoftCapturePlanner:
         q_LT_all, w_IT_T_all = _prediction_at_knots(prediction, c.dt_s, max(grid))
         n_orbit = float(prediction.n_orbit)
         if not (np.all(np.isfinite(x0)) and np.linalg.norm(x0[:3]) > 0.0):
-            return _empty_plan("invalid_input", f"initial state {x0.tolist()} is not finite "
-                               "or sits at the target's centre", [])  # fmt: skip
+            return _empty_plan(
+                "invalid_input",
+                f"initial state {x0.tolist()} is not finite or sits at the target's centre",
+                [],
+            )
         tumble = float(np.linalg.norm(w_IT_T_all[0]))
         if c.check_tumble_limit and tumble > c.tumble_rate_limit_rad_s:
             return _empty_plan(
@@ -405,8 +478,9 @@ class SoftCapturePlanner:
         R_LC_start = pointing_attitudes(x0[None, :3], c.p_CDc_C, R_LC0)[0]
         alpha0 = self._metric.evaluate(R_LC_start, x0[:3], R_LT_all[0], np.zeros(3)).alpha
         if not alpha0 > 1.0:
-            return _empty_plan("initial_state_in_collision",
-                               f"alpha at the initial state is {alpha0:.4f} <= 1", [])  # fmt: skip
+            return _empty_plan(
+                "initial_state_in_collision", f"alpha at the initial state is {alpha0:.4f} <= 1", []
+            )
         attempts: list[HorizonAttempt] = []
         last_feasible: HorizonOutcome | None = None  # last N where Problem 2 was feasible
         for N in grid:
@@ -421,10 +495,14 @@ class SoftCapturePlanner:
             outcome = solve_horizon(c, problem2, problem3, data, R_LT_all[:N], self._metric, R_LC0)
             attempts.append(
                 HorizonAttempt(
-                    N, outcome.status, outcome.reason, outcome.scp_iterations,
-                    list(outcome.solve_time_s), list(outcome.step_time_s),
+                    N,
+                    outcome.status,
+                    outcome.reason,
+                    outcome.scp_iterations,
+                    list(outcome.solve_time_s),
+                    list(outcome.step_time_s),
                 )
-            )  # fmt: skip
+            )
             if outcome.x is not None:
                 last_feasible = outcome
             if outcome.status == "success":
@@ -474,13 +552,26 @@ def _verdict(grid, attempts, last_feasible) -> tuple[str, str]:
 
 def _empty_plan(status: str, reason: str, attempts: list[HorizonAttempt]) -> SoftCapturePlan:
     return SoftCapturePlan(
-        status=status, reason=reason, N=0, t=np.zeros(0), x=np.zeros((0, 6)),
-        u=np.zeros((0, 3)), q_LT=np.zeros((0, 4)), w_IT_T=np.zeros((0, 3)),
-        q_LC=np.zeros((0, 4)), alpha=np.zeros(0), rho=np.zeros(0), slack=np.zeros(0),
-        scp_iterations=0, solve_time_s=[], cost=float("nan"), fuel_l1_N=0.0,
-        min_alpha=float("nan"), attempts=attempts,
+        status=status,
+        reason=reason,
+        N=0,
+        t=np.zeros(0),
+        x=np.zeros((0, 6)),
+        u=np.zeros((0, 3)),
+        q_LT=np.zeros((0, 4)),
+        w_IT_T=np.zeros((0, 3)),
+        q_LC=np.zeros((0, 4)),
+        alpha=np.zeros(0),
+        rho=np.zeros(0),
+        slack=np.zeros(0),
+        scp_iterations=0,
+        solve_time_s=[],
+        cost=float("nan"),
+        fuel_l1_N=0.0,
+        min_alpha=float("nan"),
+        attempts=attempts,
         total_solve_time_s=float(sum(sum(a.solve_time_s) for a in attempts)),
-    )  # fmt: skip
+    )
 
 
 def _prediction_at_knots(prediction, dt: float, N: int) -> tuple[np.ndarray, np.ndarray]:

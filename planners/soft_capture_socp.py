@@ -322,11 +322,16 @@ class SoftCaptureSocp:
             result = self._solver.Solve(self.prog, None, None)
         except RuntimeError as error:  # Drake reports solver-internal errors this way
             return SocpSolution(
-                success=False, solution_result="solver_error", solver_status=str(error),
-                solve_time_s=time.perf_counter() - start, x=np.full((N, 6), np.nan),
-                u=np.full((N - 1, 3), np.nan), rho=np.full(N, np.nan), slack=np.full(N, np.nan),
+                success=False,
+                solution_result="solver_error",
+                solver_status=str(error),
+                solve_time_s=time.perf_counter() - start,
+                x=np.full((N, 6), np.nan),
+                u=np.full((N - 1, 3), np.nan),
+                rho=np.full(N, np.nan),
+                slack=np.full(N, np.nan),
                 cost=np.nan,
-            )  # fmt: skip
+            )
         elapsed = time.perf_counter() - start
         details = result.get_solver_details()
         success = result.is_success()

@@ -53,14 +53,17 @@ import numpy as np
 from pydrake.common.yaml import yaml_dump_typed
 
 from rpod.diagrams.scenario import Scenario, ScenarioError, validate_scenario
+from rpod.models.gravity import R_EARTH_M, mean_motion
 from rpod.scenarios import sampling
 from rpod.scenarios.loader import (
     BUNDLED_DIR,
     ScenarioFileError,
     _check,
+    is_record,
     load_scenario,
     quote,
     read_yaml,
+    schema_fields,
 )
 
 CAMPAIGNS_DIR = BUNDLED_DIR / "campaigns"
@@ -96,9 +99,9 @@ def _union_choice(annotation, rest: list[str], path: str, walked: str):
     configs; e.g. `controller.hold_distance_m` is !HoldPoint's). Whether the scenario's actual
     controller has it is checked where the value is set (apply_overrides).
     """
-    choices = [a for a in typing.get_args(annotation) if dataclasses.is_dataclass(a)]
+    choices = [a for a in typing.get_args(annotation) if is_record(a)]
     for choice in choices:
-        if rest[0] in typing.get_type_hints(choice):
+        if rest[0] in schema_fields(choice):
             return choice
     known = ", ".join(f"!{c.__name__}" for c in choices)
     raise ScenarioError(path, f"no controller ({known}) has a field {quote(rest[0])} in {walked}")
@@ -111,9 +114,9 @@ def field_annotation(path: str):
     for position, (name, indices) in enumerate(tokens):
         if typing.get_origin(annotation) is typing.Union:
             annotation = _union_choice(annotation, [n for n, _ in tokens[position:]], path, walked)
-        if not dataclasses.is_dataclass(annotation):
+        if not is_record(annotation):
             raise ScenarioError(path, f"{walked} is a value, it has no field {quote(name)}")
-        hints = typing.get_type_hints(annotation)
+        hints = schema_fields(annotation)
         if name not in hints:
             where = f" of {walked}" if walked else ""
             raise ScenarioError(
@@ -132,7 +135,7 @@ def field_annotation(path: str):
 def check_value(path: str, value, location: str) -> None:
     """ScenarioError(location, ...) unless value fits the leaf field `path`."""
     annotation = field_annotation(path)
-    if dataclasses.is_dataclass(annotation):
+    if is_record(annotation):
         raise ScenarioError(location, f"{path} is a group of fields; name one of its fields")
     _check(value, annotation, location)
 
@@ -161,7 +164,7 @@ def flatten_overrides(mapping, location: str, prefix: str = "") -> dict:
             annotation = field_annotation(path)
         except ScenarioError as error:
             raise ScenarioError(where, error.message) from None
-        if dataclasses.is_dataclass(annotation) and isinstance(value, dict):
+        if is_record(annotation) and isinstance(value, dict):
             flat.update(flatten_overrides(value, where, path))
         else:
             check_value(path, value, where)
@@ -172,7 +175,8 @@ def flatten_overrides(mapping, location: str, prefix: str = "") -> dict:
 def _require_field(node, name: str, path: str, walked: str) -> None:
     """ScenarioError unless the dataclass instance has the field: a typed union (the
     controller) whose actual choice lacks a field that another choice has."""
-    if not dataclasses.is_dataclass(node) or name not in {f.name for f in dataclasses.fields(node)}:
+    fields = schema_fields(type(node)) if node is not None else None
+    if fields is None or name not in fields:
         what = "null" if node is None else f"!{type(node).__name__}"
         raise ScenarioError(path, f"{walked} is {what}, which has no field {quote(name)}")
 
@@ -320,7 +324,7 @@ def _parse_grid(data) -> dict:
             raise ScenarioError(
                 location, f"empty grid: expected a non-empty list of values, got {quote(values)}"
             )
-        if dataclasses.is_dataclass(annotation):
+        if is_record(annotation):
             raise ScenarioError(location, f"{path} is a group of fields; name one of its fields")
         seen = {}  # canonical JSON of each value as the field holds it (1 and 1.0 are one value)
         for index, value in enumerate(values):
@@ -376,7 +380,7 @@ def _parse_sample(data) -> SampleBlock:
         except ScenarioError as error:
             raise ScenarioError(location, error.message) from None
         distribution = sampling.parse_distribution(spec, location)
-        if dataclasses.is_dataclass(annotation):
+        if is_record(annotation):
             raise ScenarioError(location, f"{path} is a group of fields; name one of its fields")
         fields[str(path)] = distribution
     passively_safe = None
@@ -539,6 +543,21 @@ def draw_sample(sample: SampleBlock, index: int) -> tuple[dict, dict | None]:
     return fields, safe
 
 
+def plain_data(value):
+    """A scenario (or any part of it) as plain JSON data: dataclasses and Drake's bound configs
+    (SimulatorConfig) as dicts of their fields; the controller, a typed union, with its tag
+    under '_tag' (two controllers with the same fields are different runs)."""
+    fields = schema_fields(type(value)) if value is not None else None
+    if fields is not None:
+        data = {name: plain_data(getattr(value, name)) for name in fields}
+        if "controller" in data and data["controller"] is not None:
+            data["controller"]["_tag"] = type(value.controller).__name__
+        return data
+    if isinstance(value, list):
+        return [plain_data(item) for item in value]
+    return value
+
+
 def run_id(base_data: dict, overrides: dict, sample_key) -> str:
     """The stable id of a run (see the module docstring)."""
     canonical = json.dumps(
@@ -559,7 +578,7 @@ def plan_runs(campaign: Campaign) -> list[PlannedRun]:
 
     Raises ScenarioFileError naming the campaign location whose value makes a run invalid.
     """
-    base_data = dataclasses.asdict(campaign.base)
+    base_data = plain_data(campaign.base)
     grid_paths = list(campaign.grid)
     grid_points = [
         dict(zip(grid_paths, values)) for values in itertools.product(*campaign.grid.values())
@@ -600,7 +619,7 @@ def plan_runs(campaign: Campaign) -> list[PlannedRun]:
                                 "sample.passively_safe",
                                 "needs an orbit, and orbit.gravity is free_space",
                             )
-                        n = sampling.mean_motion(scenario.orbit.altitude_m)
+                        n = mean_motion(R_EARTH_M + scenario.orbit.altitude_m)
                         safe_overrides = sampling.passively_safe_overrides(
                             safe,
                             n,

@@ -301,8 +301,8 @@ def _execute(request: dict, bases: dict) -> dict:
 
     from pydrake.common.yaml import yaml_load_typed
 
-    from rpod.diagrams.builder import simulate
     from rpod.diagrams.scenario import Scenario, validate_scenario
+    from rpod.diagrams.simulate import simulate
     from rpod.scenarios.campaign import apply_overrides
     from rpod.scenarios.run import run_to_folder
 
@@ -350,7 +350,7 @@ def _serve() -> None:
     import logging
 
     logging.getLogger("drake").setLevel(logging.WARNING)
-    for module in ("rpod.diagrams.builder", "rpod.scenarios.campaign", "rpod.scenarios.run"):
+    for module in ("rpod.diagrams.simulate", "rpod.scenarios.campaign", "rpod.scenarios.run"):
         importlib.import_module(module)  # the heavy imports, once, before saying ready
 
     protocol.write(json.dumps({"ready": True, "pid": os.getpid()}) + "\n")

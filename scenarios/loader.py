@@ -91,6 +91,23 @@ def resolve_scenario_path(name_or_path: str) -> pathlib.Path:
     )
 
 
+def schema_fields(annotation) -> dict | None:
+    """{field: type} of a schema record: a dataclass, or a Drake config bound from C++ with
+    DefAttributesUsingSerialize (e.g. SimulatorConfig, whose `__fields__` list them); None for
+    anything else."""
+    if dataclasses.is_dataclass(annotation):
+        return typing.get_type_hints(annotation)
+    fields = getattr(annotation, "__fields__", None)
+    if isinstance(annotation, type) and fields is not None:
+        return {field.name: field.type for field in fields}
+    return None
+
+
+def is_record(annotation) -> bool:
+    """True for a schema type with named fields (schema_fields)."""
+    return schema_fields(annotation) is not None
+
+
 def _union_choices(annotation) -> tuple[list[type], bool]:
     """(the dataclass choices of a Union annotation, whether None is allowed)."""
     args = typing.get_args(annotation)
@@ -105,7 +122,7 @@ def _type_name(annotation) -> str:
         return "one of " + ", ".join(names)
     if origin is list:
         return f"a list of {_type_name(typing.get_args(annotation)[0])}"
-    if dataclasses.is_dataclass(annotation):
+    if is_record(annotation):
         return "a mapping"
     return {float: "a number", int: "an integer", bool: "true or false", str: "a string"}.get(
         annotation, str(annotation)
@@ -131,10 +148,10 @@ def _check(value, annotation, field: str) -> None:
                 raise ScenarioError(field, f"unknown tag !{tag} (known: {known})")
         _check(value, chosen, field)
         return
-    if dataclasses.is_dataclass(annotation):
+    if is_record(annotation):
         if not isinstance(value, dict):
             raise ScenarioError(field or "(top level)", f"expected {expected}, got {quote(value)}")
-        known = typing.get_type_hints(annotation)
+        known = schema_fields(annotation)
         for key, item in value.items():
             path = f"{field}.{key}" if field else str(key)
             if key not in known:

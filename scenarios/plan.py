@@ -42,7 +42,6 @@ from pydrake.common.yaml import yaml_dump_typed
 from rpod.diagrams import controller_seam
 from rpod.diagrams.plan_plots import write_plan_plots
 from rpod.diagrams.scenario import Scenario
-from rpod.planners.plan_check import check_plan
 from rpod.scenarios.loader import ScenarioFileError
 from rpod.scenarios.run import check_out_dir, staged_folder
 
@@ -75,14 +74,24 @@ def plan_arrays(result, alpha_check: np.ndarray | None = None) -> dict:
     """The arrays of plan.npz (module docstring)."""
     plan, config = result.plan, result.config
     arrays = {
-        "t": plan.t, "x": plan.x, "u": plan.u, "q_LT": plan.q_LT, "w_IT_T": plan.w_IT_T,
-        "q_LC": plan.q_LC, "alpha": plan.alpha, "rho": plan.rho, "slack": plan.slack,
+        "t": plan.t,
+        "x": plan.x,
+        "u": plan.u,
+        "q_LT": plan.q_LT,
+        "w_IT_T": plan.w_IT_T,
+        "q_LC": plan.q_LC,
+        "alpha": plan.alpha,
+        "rho": plan.rho,
+        "slack": plan.slack,
         "alpha_check": alpha_check if alpha_check is not None else np.full(plan.N, np.nan),
-        "A_chaser": result.chaser_hull.A, "b_chaser": result.chaser_hull.b,
-        "V_chaser": result.chaser_hull.vertices, "A_target": result.target_hull.A,
-        "b_target": result.target_hull.b, "V_target": result.target_hull.vertices,
+        "A_chaser": result.chaser_hull.A,
+        "b_chaser": result.chaser_hull.b,
+        "V_chaser": result.chaser_hull.vertices,
+        "A_target": result.target_hull.A,
+        "b_target": result.target_hull.b,
+        "V_target": result.target_hull.vertices,
         "x0": result.x0,
-    }  # fmt: skip
+    }
     arrays.update(config.symbols())  # n, m, dt, ..., D_c, D_t (Table I symbols)
     return {key: np.asarray(value) for key, value in arrays.items()}
 
@@ -92,8 +101,8 @@ def plan_summary(name: str, result, report) -> dict:
     plan, config = result.plan, result.config
     summary = {
         "scenario": name,
-        "status": plan.status,
-        "reason": plan.reason,
+        "status": result.checked.status.value,
+        "reason": result.checked.reason,
         "N": int(plan.N),
         "time_to_capture_s": (plan.N - 1) * config.dt_s if plan.N else None,
         "scp_iterations": int(plan.scp_iterations),
@@ -139,7 +148,8 @@ def plan_to_folder(
         overwrite: Also replace a folder rpod did not write (`--overwrite`).
 
     Returns:
-        The summary (summary.json's content); ``summary["status"]`` is the planner's status.
+        The summary (summary.json's content); ``summary["status"]`` is the planner's status, or
+        "check_failed" when the checker rejected the planner's success.
 
     Raises:
         ScenarioFileError: If the scenario has no soft-capture controller, or out_dir may not
@@ -147,10 +157,9 @@ def plan_to_folder(
     """
     check_out_dir(out_dir, overwrite)
     result = plan_scenario(name, scenario, closed_loop)
-    report = None
-    if result.plan.N >= 2:
-        report = check_plan(result.plan, result.config, result.prediction, x0=result.x0,
-                            chaser_hull=result.chaser_hull, target_hull=result.target_hull)  # fmt: skip
+    if result.plan is None:  # a validated scenario's prediction does not fail; say so if it did
+        raise ScenarioFileError(f"{name}: target: {result.checked.reason}")
+    report = result.checked.report  # the independent check (any plan of N >= 2 knots)
     with staged_folder(out_dir, overwrite) as staging:
         arrays = plan_arrays(result, None if report is None else report.alpha_check)
         np.savez_compressed(staging / "plan.npz", **arrays)

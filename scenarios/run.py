@@ -58,9 +58,9 @@ import threading
 import numpy as np
 from pydrake.common.yaml import yaml_dump_typed
 
-from rpod.diagrams.builder import simulate
 from rpod.diagrams.plots import write_plots
 from rpod.diagrams.scenario import Scenario
+from rpod.diagrams.simulate import simulate
 from rpod.scenarios.loader import ScenarioFileError, quote
 
 MANIFEST = ".rpod-output"  # the list of what rpod wrote, in every output folder
@@ -138,10 +138,12 @@ def _refuse_protected(label: str, out: pathlib.Path) -> None:
     for folder, what in protected:
         if real in _ancestors_and_self(folder):
             is_what = (
-                "is the filesystem root" if real == pathlib.Path(real.anchor)
-                else f"is {what}" if real == folder
+                "is the filesystem root"
+                if real == pathlib.Path(real.anchor)
+                else f"is {what}"
+                if real == folder
                 else f"contains {what}"
-            )  # fmt: skip
+            )
             raise ScenarioFileError(
                 f"{label}: {is_what}, which rpod would replace whole; choose a folder of its "
                 f"own, such as runs/NAME"
@@ -384,9 +386,12 @@ def staged_folder(out_dir: pathlib.Path, overwrite: bool = False):
 
 
 def run_to_folder(
-    name: str, scenario: Scenario, out_dir: pathlib.Path, record: bool = True,
+    name: str,
+    scenario: Scenario,
+    out_dir: pathlib.Path,
+    record: bool = True,
     overwrite: bool = False,
-) -> dict:  # fmt: skip
+) -> dict:
     """Simulates `scenario` and writes its outputs into out_dir; returns the summary.
 
     out_dir is checked before anything is simulated (`staged_folder`); with `overwrite`, a

@@ -31,7 +31,6 @@ from pydrake.math import RollPitchYaw, RotationMatrix
 
 from rpod.diagrams.scenario import ScenarioError
 from rpod.models.cw import passively_safe_state
-from rpod.models.gravity import MU_EARTH_M3_S2, R_EARTH_M
 from rpod.planners.pointing import min_rotation
 from rpod.scenarios.loader import quote
 
@@ -412,12 +411,6 @@ def parse_passively_safe(data, location: str) -> PassivelySafeSampler:
             )
         sampler = dataclasses.replace(sampler, start_range_m=(low, high))
     return sampler
-
-
-def mean_motion(altitude_m: float) -> float:
-    """n = sqrt(mu / a^3) of a circular orbit at this altitude [rad/s]."""
-    a = R_EARTH_M + altitude_m
-    return math.sqrt(MU_EARTH_M3_S2 / a**3)
 
 
 def passively_safe_overrides(draw: dict, n: float, capture_point_C=None) -> dict:

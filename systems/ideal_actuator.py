@@ -71,9 +71,7 @@ class IdealActuator(LeafSystem):
 
     def force_C(self, context) -> tuple[np.ndarray, bool]:
         """(f_C, clipped) at this context."""
-        command, clipped = bound_command(
-            self._command_port.Eval(context), self._bound, self._limit
-        )
+        command, clipped = bound_command(self._command_port.Eval(context), self._bound, self._limit)
         if self._quantity == "acceleration":
             command = self._mass_port.Eval(context)[0] * command
         if self._frame == "L":

@@ -171,9 +171,11 @@ class SceneConfig:
         for name in ("target_vertices_T", "chaser_vertices_C"):
             vertices = np.asarray(getattr(self, name), dtype=float)
             if vertices.size and (
-                vertices.ndim != 2 or vertices.shape[1] != 3 or len(vertices) < 4
+                vertices.ndim != 2
+                or vertices.shape[1] != 3
+                or len(vertices) < 4
                 or not np.all(np.isfinite(vertices))
-            ):  # fmt: skip
+            ):
                 raise ValueError(f"SceneConfig.{name} must be empty or >= 4 finite 3-D points")
 
     def body_extent_m(self, body: str) -> float:
@@ -508,9 +510,12 @@ class PlannedPathOverlay(LeafSystem):
     """
 
     def __init__(
-        self, meshcat: Meshcat, publish_period_s: float, prefix: str = "rpod",
+        self,
+        meshcat: Meshcat,
+        publish_period_s: float,
+        prefix: str = "rpod",
         knot_size_m: float = 0.12,
-    ):  # fmt: skip
+    ):
         super().__init__()
         self._meshcat = meshcat
         self._root = f"{prefix}/overlay/plans"

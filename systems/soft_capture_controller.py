@@ -101,7 +101,6 @@ is tried again at that period.
 import dataclasses
 import logging
 import math
-import time
 
 import numpy as np
 from pydrake.common.value import AbstractValue, Value
@@ -116,10 +115,9 @@ from rpod.models.shapes import (
     soft_capture_chaser_hull,
     soft_capture_target_hull,
 )
-from rpod.planners.plan_check import DEFAULT_TOLERANCES, check_plan
+from rpod.planners.checked_plan import predict_plan_check
 from rpod.planners.pointing import min_rotation
-from rpod.planners.soft_capture import SoftCaptureConfig, SoftCapturePlanner
-from rpod.planners.target_prediction import predict_target
+from rpod.planners.soft_capture import PlanStatus, SoftCaptureConfig, SoftCapturePlanner
 from rpod.systems.sensed import Sensed, declare_sensed_input
 
 # Controller modes (the ``controller_mode`` output, logged; MODES[code] is the name).
@@ -131,23 +129,9 @@ MODE_TRACKING, MODE_CAPTURE_HOLD, MODE_FALLBACK = range(3)
 # the target prediction raised on the measured target state (e.g. non-finite); "check_failed":
 # the planner returned success but the independent plan checker rejected the plan (module
 # docstring, "Plan check"); "other": a status not in this list.
-PLANNER_STATUSES = (
-    "none",
-    "success",
-    "invalid_input",
-    "tumble_rate_above_limit",
-    "initial_state_in_collision",
-    "no_feasible_horizon",
-    "problem2_infeasible",
-    "problem2_solver_failure",
-    "problem3_infeasible",
-    "problem3_solver_failure",
-    "collision_metric_failed",
-    "scp_max_iterations",
-    "prediction_failed",
-    "check_failed",
-    "other",
-)
+# Log codes of the planner status: "none" (no call yet), the planner's PlanStatus in its fixed
+# order, and "other" (anything else).
+PLANNER_STATUSES = ("none", *(status.value for status in PlanStatus), "other")
 _R_Y_PI = np.diag([-1.0, 1.0, -1.0])
 _logger = logging.getLogger(__name__)
 # Times within this of a knot or a replan instant count as on it (the periodic event times are
@@ -272,19 +256,6 @@ class SoftCaptureControllerConfig:
 def _is_multiple(value: float, period: float) -> bool:
     ratio = value / period
     return ratio >= 1.0 - 1e-9 and abs(ratio - round(ratio)) < 1e-9 * max(1.0, ratio)
-
-
-def _worst_first(violations: dict) -> list[str]:
-    """Violation names, a collision first, then by value / tolerance (largest first)."""
-
-    def severity(name):
-        if name == "min_alpha":
-            return math.inf
-        limit = DEFAULT_TOLERANCES.get(name, DEFAULT_TOLERANCES["dynamics_residual"])
-        value = violations[name]
-        return value / limit if limit > 0 and math.isfinite(value) else math.inf
-
-    return sorted(violations, key=severity, reverse=True)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -454,63 +425,50 @@ class SoftCaptureController(LeafSystem):
     def _predict_and_plan(self, t, x0, R_LT, w_IT_T, R_LC, horizons):
         """(plan or None, record fields) -- never raises on a bad measurement.
 
-        A plan the planner calls a success is checked (module docstring, "Plan check"); when the
-        check rejects it, the fields say status "check_failed" and name the violations.
+        The one predict-plan-check path (rpod.planners.checked_plan), as `rpod plan` uses it:
+        a plan the planner calls a success is checked (module docstring, "Plan check"); when
+        the check rejects it, the fields say status "check_failed" and name the violations.
         """
-        c = self._planning
-        count = max(horizons) if horizons is not None else c.max_knots
-        start = time.perf_counter()
-        try:
-            prediction = predict_target(
-                RotationMatrix(R_LT).ToQuaternion().wxyz(),
-                w_IT_T,
-                self._J_T,
-                t + np.arange(count) * self._dt,
-                n_orbit=self._n,
-            )
-        except (ValueError, RuntimeError) as error:
-            return None, {"status": "prediction_failed", "reason": str(error).splitlines()[0],
-                          "wall_time_s": time.perf_counter() - start}  # fmt: skip
-        plan = self._planner.plan(x0, prediction, horizons=horizons, R_LC0=R_LC)
+        result = predict_plan_check(
+            self._planner,
+            x0,
+            RotationMatrix(R_LT).ToQuaternion().wxyz(),
+            w_IT_T,
+            self._J_T,
+            t0_s=t,
+            R_LC0=R_LC,
+            horizons=horizons,
+        )
+        plan = result.plan
         fields = {
-            "status": plan.status,
-            "reason": plan.reason,
-            "N": int(plan.N),
-            "scp_iterations": int(plan.scp_iterations),
-            "solve_time_s": [float(s) for s in plan.solve_time_s],
-            "step_time_s": [float(s) for s in plan.step_time_s],
-            "total_solve_time_s": float(plan.total_solve_time_s),
-            "wall_time_s": time.perf_counter() - start,
-            "min_alpha": float(plan.min_alpha),
-            "min_alpha_true": float(plan.min_alpha) * (1.0 + self._config.collision_margin),
-            "fuel_l1_N": float(plan.fuel_l1_N),
+            "status": result.status.value,
+            "reason": result.reason,
+            "wall_time_s": result.wall_time_s,
         }
-        if plan.success:  # against what it was planned with: config, scaled hulls, prediction
-            check_start = time.perf_counter()
-            planner = self._planner
-            report = check_plan(
-                plan, planner.config, prediction, x0=x0,
-                chaser_hull=planner.chaser_hull, target_hull=planner.target_hull,
-            )  # fmt: skip
-            violations = report.violations()
+        if plan is None:
+            return None, fields
+        fields.update(
+            N=int(plan.N),
+            scp_iterations=int(plan.scp_iterations),
+            solve_time_s=[float(s) for s in plan.solve_time_s],
+            step_time_s=[float(s) for s in plan.step_time_s],
+            total_solve_time_s=float(plan.total_solve_time_s),
+            min_alpha=float(plan.min_alpha),
+            min_alpha_true=float(plan.min_alpha) * (1.0 + self._config.collision_margin),
+            fuel_l1_N=float(plan.fuel_l1_N),
+        )
+        report = result.report
+        if report is not None:  # against what it was planned with: config, hulls, prediction
             fields.update(
-                check_passed=not violations,
-                check_violations={
-                    name: float(violations[name]) for name in _worst_first(violations)
-                },
+                check_passed=report.passed(),
+                check_violations=result.worst_violations(),
                 check_min_alpha=float(report.min_alpha),
                 # Uniform scaling about the origins: alpha_true = (1 + margin) alpha exactly.
                 check_min_alpha_true=float(report.min_alpha)
                 * (1.0 + self._config.collision_margin),
                 check_dynamics_residual=float(report.dynamics_residual),
-                check_time_s=time.perf_counter() - check_start,
+                check_time_s=result.check_time_s,
             )
-            if violations:
-                found = ", ".join(f"{k} = {v:.3g}" for k, v in fields["check_violations"].items())
-                fields.update(
-                    status="check_failed",
-                    reason=f"the planner's plan (N = {plan.N}) failed the plan check: {found}",
-                )
         return plan, fields
 
     def _plan(self, memory: _Memory, t, kind, x0, R_LT, w_IT_T, R_LC) -> _Memory:
@@ -527,13 +485,28 @@ class SoftCaptureController(LeafSystem):
             horizons = [round((t_final - t) / self._dt) + 1]  # same final time
         plan, fields = self._predict_and_plan(t, x0, R_LT, w_IT_T, R_LC, horizons)
         accepted = plan is not None and plan.success and fields["check_passed"]
-        record = {"t_s": float(t), "kind": kind, "N": 0, "scp_iterations": 0, "solve_time_s": [],
-                  "total_solve_time_s": 0.0, "min_alpha": float("nan"),
-                  "min_alpha_true": float("nan"), "fuel_l1_N": 0.0, "check_passed": None,
-                  "check_violations": {}, "check_min_alpha": float("nan"),
-                  "check_min_alpha_true": float("nan"), "check_dynamics_residual": float("nan"),
-                  "check_time_s": 0.0,
-                  **fields, "accepted": accepted, "index": 0, "x": [], "u": []}  # fmt: skip
+        record = {
+            "t_s": float(t),
+            "kind": kind,
+            "N": 0,
+            "scp_iterations": 0,
+            "solve_time_s": [],
+            "total_solve_time_s": 0.0,
+            "min_alpha": float("nan"),
+            "min_alpha_true": float("nan"),
+            "fuel_l1_N": 0.0,
+            "check_passed": None,
+            "check_violations": {},
+            "check_min_alpha": float("nan"),
+            "check_min_alpha_true": float("nan"),
+            "check_dynamics_residual": float("nan"),
+            "check_time_s": 0.0,
+            **fields,
+            "accepted": accepted,
+            "index": 0,
+            "x": [],
+            "u": [],
+        }
         new_plan = memory.plan
         next_retry = memory.next_retry_s
         if accepted:
@@ -545,16 +518,29 @@ class SoftCaptureController(LeafSystem):
         elif kind == "replan":
             new_plan = dataclasses.replace(memory.plan, next_replan_s=t + cfg.replan_period_s)
             level = logging.WARNING if record["status"] == "check_failed" else logging.INFO
-            _logger.log(level, "soft capture: replan at t = %.1f s failed (%s: %s); keeping the "
-                        "plan", t, record["status"], record["reason"])  # fmt: skip
+            _logger.log(
+                level,
+                "soft capture: replan at t = %.1f s failed (%s: %s); keeping the plan",
+                t,
+                record["status"],
+                record["reason"],
+            )
         else:
             next_retry = t + cfg.retry_period_s if cfg.retry_period_s > 0 else math.inf
-            _logger.warning("soft capture: no plan at t = %.1f s (%s: %s); zero thrust on the "
-                            "passively safe orbit", t, record["status"], record["reason"])  # fmt: skip
+            _logger.warning(
+                "soft capture: no plan at t = %.1f s (%s: %s); zero thrust on the "
+                "passively safe orbit",
+                t,
+                record["status"],
+                record["reason"],
+            )
         return dataclasses.replace(
-            memory, plan=new_plan, attempted=True, next_retry_s=next_retry,
+            memory,
+            plan=new_plan,
+            attempted=True,
+            next_retry_s=next_retry,
             records=memory.records + (record,),
-        )  # fmt: skip
+        )
 
     # ------------------------------------------------------------------------------------------
     # The law

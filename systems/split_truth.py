@@ -92,8 +92,14 @@ class SplitTruth(Diagram):
             connect(zero_wrench.get_output_port(), orbital.GetInputPort("body_wrench"))
             connect(zero_flow.get_output_port(), orbital.GetInputPort("propellant_mass_flow"))
             connect(zero_torque.get_output_port(), chaser.GetInputPort("body_torque"))
-        for name in ("target_state_I", "chaser_state_I", "relative_state_L", "q_IL", "w_IL_L",
-                     "chaser_mass"):  # fmt: skip
+        for name in (
+            "target_state_I",
+            "chaser_state_I",
+            "relative_state_L",
+            "q_IL",
+            "w_IL_L",
+            "chaser_mass",
+        ):
             builder.ExportOutput(orbital.GetOutputPort(name), name)
         builder.ExportOutput(target.GetOutputPort("attitude"), "target_attitude")
         builder.ExportOutput(chaser.GetOutputPort("attitude"), "chaser_attitude")

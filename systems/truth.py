@@ -406,8 +406,18 @@ class Truth(LeafSystem):
         Jc = self._J_C_inv_flat
 
         xdot = [
-            vx, vy, vz, aTx, aTy, aTz,  # target orbit
-            sx, sy, sz, ax, ay, az,  # chaser relative to the target
+            vx,
+            vy,
+            vz,
+            aTx,
+            aTy,
+            aTz,  # target orbit
+            sx,
+            sy,
+            sz,
+            ax,
+            ay,
+            az,  # chaser relative to the target
             -mdot,  # propellant
             0.5 * (-tx * wtx - ty * wty - tz * wtz),  # q_IT rate: 1/2 L(q) [0; w] (eq. 1-2)
             0.5 * (tw * wtx + ty * wtz - tz * wty),
@@ -423,7 +433,7 @@ class Truth(LeafSystem):
             Jc[0] * gx + Jc[1] * gy + Jc[2] * gz,  # w_IC_C rate: J_C^-1 (h x w + tau_C)
             Jc[3] * gx + Jc[4] * gy + Jc[5] * gz,
             Jc[6] * gx + Jc[7] * gy + Jc[8] * gz,
-        ]  # fmt: skip
+        ]
         derivatives.get_mutable_vector().SetFromVector(np.array(xdot))
 
     # ---- Outputs. ----

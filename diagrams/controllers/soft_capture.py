@@ -13,7 +13,6 @@ Mission: capture (paper 000's eps_p, eps_v on the capture points, no contact bef
 
 import dataclasses
 import math
-import time
 
 import numpy as np
 
@@ -34,11 +33,11 @@ from rpod.diagrams.scenario import (
 )
 from rpod.models.frames import quaternion_wxyz, rotation_from_wxyz
 from rpod.models.gravity import R_EARTH_M
+from rpod.planners.checked_plan import CheckedPlan, predict_plan_check
 from rpod.planners.soft_capture import (
     SoftCaptureConfig,
     SoftCapturePlanner,
     SoftCaptureSettings,
-    predict_for_planner,
 )
 from rpod.systems.sensed import SENSED_PORT
 from rpod.systems.soft_capture_controller import MODES as CONTROLLER_MODES
@@ -48,8 +47,13 @@ from rpod.systems.soft_capture_controller import (
     SoftCaptureControllerConfig,
 )
 
-LOGGED = ("body_wrench_desired", "reference_L", "force_feedforward_L", "controller_mode",
-          "planner_status")  # fmt: skip
+LOGGED = (
+    "body_wrench_desired",
+    "reference_L",
+    "force_feedforward_L",
+    "controller_mode",
+    "planner_status",
+)
 
 
 @dataclasses.dataclass
@@ -119,12 +123,19 @@ def capture_outcome(log: dict, scenario) -> dict:
     separation = np.asarray(log["separation_m"], float)
     met = np.flatnonzero((position_error <= eps_p) & (speed <= eps_v))
     contact = np.flatnonzero(~(separation > 0.0))
-    outcome = {"success": False, "reason": "", "time_s": float("nan"),
-               "contact_after_s": float("nan")}  # fmt: skip
+    outcome = {
+        "success": False,
+        "reason": "",
+        "time_s": float("nan"),
+        "contact_after_s": float("nan"),
+    }
     if len(met) and (not len(contact) or contact[0] > met[0]):
         i = int(met[0])
-        outcome.update(success=True, reason=f"capture points within eps_p = {eps_p} m and "
-                       f"eps_v = {eps_v} m/s with no contact before")  # fmt: skip
+        outcome.update(
+            success=True,
+            reason=f"capture points within eps_p = {eps_p} m and "
+            f"eps_v = {eps_v} m/s with no contact before",
+        )
         if len(contact):
             outcome["contact_after_s"] = float(log["t"][int(contact[0])])
     elif len(contact) and (not len(met) or contact[0] <= met[0]):
@@ -133,8 +144,10 @@ def capture_outcome(log: dict, scenario) -> dict:
     else:
         i = int(np.argmin(np.maximum(position_error / eps_p, speed / eps_v)))
         if not np.any(position_error <= eps_p):
-            outcome["reason"] = (f"position: the capture points never came within eps_p = "
-                                 f"{eps_p} m (closest {position_error.min():.3f} m)")  # fmt: skip
+            outcome["reason"] = (
+                f"position: the capture points never came within eps_p = "
+                f"{eps_p} m (closest {position_error.min():.3f} m)"
+            )
         else:
             within = position_error <= eps_p
             outcome["reason"] = (
@@ -170,8 +183,12 @@ def plan_knots(records: list[dict], dt: float) -> dict:
         t[i, : len(knots)] = record["t_s"] + np.arange(len(knots)) * dt
         x[i, : len(knots)] = knots
         u[i, : len(knots) - 1] = np.asarray(record["u"], float)
-    return {"plan_knots_t": t, "plan_knots_p_LC_L": x[..., :3], "plan_knots_v_LC_L": x[..., 3:],
-            "plan_knots_u_L": u}  # fmt: skip
+    return {
+        "plan_knots_t": t,
+        "plan_knots_p_LC_L": x[..., :3],
+        "plan_knots_v_LC_L": x[..., 3:],
+        "plan_knots_u_L": u,
+    }
 
 
 @dataclasses.dataclass
@@ -179,30 +196,44 @@ class ScenarioPlan:
     """A plan and everything it was made from.
 
     Attributes:
-        plan: The planner's ``SoftCapturePlan``.
+        checked: the predict-plan-check result (rpod.planners.checked_plan): the status, the
+            plan, the prediction it was planned against and the checker's report.
         config: The ``SoftCaptureConfig`` it was planned with.
-        prediction: The ``TargetPrediction`` it was planned against.
         x0: Initial state (6,) [m, m/s].
         chaser_hull: Chaser ``ConvexPolytope`` (C).
         target_hull: Target ``ConvexPolytope`` (T).
-        wall_time_s: Prediction + planning wall time [s].
     """
 
-    plan: object
-    config: object
-    prediction: object
+    checked: CheckedPlan
+    config: SoftCaptureConfig
     x0: np.ndarray
     chaser_hull: object
     target_hull: object
-    wall_time_s: float
+
+    @property
+    def plan(self):
+        """The planner's ``SoftCapturePlan``."""
+        return self.checked.plan
+
+    @property
+    def prediction(self):
+        """The ``TargetPrediction`` it was planned against."""
+        return self.checked.prediction
+
+    @property
+    def wall_time_s(self) -> float:
+        """Prediction + planning wall time [s]."""
+        return self.checked.wall_time_s
 
 
 def plan_scenario(scenario, closed_loop: bool = False) -> ScenarioPlan:
     """Plans the scenario's soft capture from its initial state, no simulation (`rpod plan`).
 
-    The planner's config as the scenario gives it (settings as written, problem data derived);
+    The same predict-plan-check path as the closed loop's (rpod.planners.checked_plan), with
+    the planner's config as the scenario gives it (settings as written, problem data derived);
     `closed_loop` plans what the closed loop's first plan is: eps_p, eps_v scaled by
-    plan_tolerance_fraction and the hulls by 1 + collision_margin.
+    plan_tolerance_fraction and the hulls by 1 + collision_margin. An unsuccessful plan of
+    N >= 2 knots is checked too (for diagnosis).
     """
     block = controller_config(scenario)
     config = block.planning_config() if closed_loop else block.planner
@@ -211,17 +242,16 @@ def plan_scenario(scenario, closed_loop: bool = False) -> ScenarioPlan:
     if closed_loop:
         chaser_hull, target_hull = block.planning_hulls(chaser_hull, target_hull)
     x0 = np.concatenate([np.asarray(chaser.p_LC_L, float), np.asarray(chaser.v_LC_L, float)])
-    start = time.perf_counter()
-    prediction = predict_for_planner(
-        config,
+    checked = predict_plan_check(
+        SoftCapturePlanner(config, chaser_hull, target_hull),
+        x0,
         quaternion_wxyz(target_rotation_in_lvlh(scenario)),
         np.radians(np.asarray(target.w_IT_T_deg_s, float)),
         np.asarray(target.inertia_kg_m2, float),
+        R_LC0=chaser_rotation_in_lvlh(scenario),
+        check_unsuccessful=True,
     )
-    planner = SoftCapturePlanner(config, chaser_hull, target_hull)
-    plan = planner.plan(x0, prediction, R_LC0=chaser_rotation_in_lvlh(scenario))
-    return ScenarioPlan(plan, config, prediction, x0, chaser_hull, target_hull,
-                        time.perf_counter() - start)  # fmt: skip
+    return ScenarioPlan(checked, config, x0, chaser_hull, target_hull)
 
 
 def _outcome_text(capture: dict) -> str:
@@ -356,25 +386,29 @@ class SoftCapturePlugin(ControllerPlugin):
             "planner_status": accepted[-1]["status"] if accepted else last_call,
             "last_planner_call_status": last_call,
         }
-        summary.update(_json_safe({
-            "capture_success": bool(capture["success"]),
-            "capture_time_s": capture["time_s"],
-            "capture_position_error_m": capture["position_error_m"],
-            "capture_speed_error_m_s": capture["speed_error_m_s"],
-            "initial_plan_success": bool(first.get("accepted", False)),
-            "initial_plan_N": int(first.get("N", 0)),
-            "initial_plan_scp_iterations": int(first.get("scp_iterations", 0)),
-            "initial_plan_solve_time_s": float(first.get("total_solve_time_s", 0.0)),
-            "replans_accepted": sum(1 for r in records[1:] if r["accepted"]),
-            "replans_failed": sum(1 for r in records[1:] if not r["accepted"]),
-            # The independent plan check of every plan the planner called a success (None: the
-            # initial call had no such plan).
-            "plans_checked": sum(1 for r in records if r.get("check_passed") is not None),
-            "plans_check_failed": sum(1 for r in records if r.get("check_passed") is False),
-            "initial_plan_check_passed": first.get("check_passed"),
-            "contact_after_capture": bool(capture["success"])
-            and math.isfinite(capture["contact_after_s"]),
-        }))  # fmt: skip
+        summary.update(
+            _json_safe(
+                {
+                    "capture_success": bool(capture["success"]),
+                    "capture_time_s": capture["time_s"],
+                    "capture_position_error_m": capture["position_error_m"],
+                    "capture_speed_error_m_s": capture["speed_error_m_s"],
+                    "initial_plan_success": bool(first.get("accepted", False)),
+                    "initial_plan_N": int(first.get("N", 0)),
+                    "initial_plan_scp_iterations": int(first.get("scp_iterations", 0)),
+                    "initial_plan_solve_time_s": float(first.get("total_solve_time_s", 0.0)),
+                    "replans_accepted": sum(1 for r in records[1:] if r["accepted"]),
+                    "replans_failed": sum(1 for r in records[1:] if not r["accepted"]),
+                    # The independent plan check of every plan the planner called a success (None: the
+                    # initial call had no such plan).
+                    "plans_checked": sum(1 for r in records if r.get("check_passed") is not None),
+                    "plans_check_failed": sum(1 for r in records if r.get("check_passed") is False),
+                    "initial_plan_check_passed": first.get("check_passed"),
+                    "contact_after_capture": bool(capture["success"])
+                    and math.isfinite(capture["contact_after_s"]),
+                }
+            )
+        )
         # The corridor a user reads this run for is paper 000's docking cone (eq. 11), which the
         # plan enforces over its last N_dock knots: the violation there, up to the capture.
         window = None

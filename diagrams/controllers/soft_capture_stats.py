@@ -62,28 +62,40 @@ def soft_capture_rows(rows: list[dict]) -> list[list[str]] | None:
     captured = sum(1 for m in runs if m.get("capture_success"))
     after = sum(1 for m in runs if m.get("contact_after_capture"))
     table = [
-        ["initial plans accepted (planner + checker)", _share(len(ok), len(initial)),
-         PAPER["success"]],
+        [
+            "initial plans accepted (planner + checker)",
+            _share(len(ok), len(initial)),
+            PAPER["success"],
+        ],
         ["  solved by Problem 2 alone", _share(scp.count(0), len(ok)), PAPER["problem2_alone"]],
         ["  <= 1 SCP iteration", _share(sum(n <= 1 for n in scp), len(ok)), PAPER["le1"]],
         ["  <= 5 SCP iterations", _share(sum(n <= 5 for n in scp), len(ok)), PAPER["le5"]],
         ["time per SCP iteration (mean)", _seconds(per_iteration), PAPER["per_iteration"]],
         ["Problem 2 step (mean)", _seconds([s[0] for s in steps if s]), ""],
-        ["cumulative after 1 SCP iteration (mean)", _seconds(cumulative[1]),
-         PAPER["cumulative_1"]],
-        ["cumulative after 5 SCP iterations (mean)", _seconds(cumulative[5]),
-         PAPER["cumulative_5"]],
-        ["initial plan wall time, whole N search (median / p95 / max)",
-         " / ".join(f"{v:.3f}" for v in np.percentile(walls, [50, 95, 100])) + " s", ""],
-        ["plans checked by the independent checker (all calls)",
-         f"{checked}, {rejected} rejected", ""],
+        ["cumulative after 1 SCP iteration (mean)", _seconds(cumulative[1]), PAPER["cumulative_1"]],
+        [
+            "cumulative after 5 SCP iterations (mean)",
+            _seconds(cumulative[5]),
+            PAPER["cumulative_5"],
+        ],
+        [
+            "initial plan wall time, whole N search (median / p95 / max)",
+            " / ".join(f"{v:.3f}" for v in np.percentile(walls, [50, 95, 100])) + " s",
+            "",
+        ],
+        [
+            "plans checked by the independent checker (all calls)",
+            f"{checked}, {rejected} rejected",
+            "",
+        ],
         ["closed-loop capture", _share(captured, len(runs)), "(not in the paper)"],
         ["  contact after a capture", _share(after, captured), ""],
-    ]  # fmt: skip
+    ]
     failures = collections.Counter(
-        m.get("capture", {}).get("reason", "?").split(":")[0] for m in runs
+        m.get("capture", {}).get("reason", "?").split(":")[0]
+        for m in runs
         if not m.get("capture_success")
-    )  # fmt: skip
+    )
     for reason, count in failures.most_common():
         table.append([f"  capture failed: {reason}", str(count), ""])
     return table

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from pydrake.math import RotationMatrix
 
-from rpod.diagrams.builder import build_diagram, simulate
+from rpod.diagrams.builder import build_diagram
 from rpod.diagrams.scenario import (
     ChaserConfig,
     Scenario,
@@ -21,6 +21,7 @@ from rpod.diagrams.scenario import (
     ThrustersConfig,
     validate_scenario,
 )
+from rpod.diagrams.simulate import simulate
 from rpod.models.frames import rotation_from_rpy_deg, rotation_from_wxyz
 from rpod.models.thrusters import STANDARD_GRAVITY_M_S2
 from rpod.systems.orbital_dynamics import OrbitConfig

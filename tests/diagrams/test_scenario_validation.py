@@ -4,7 +4,6 @@ the field, and the bounds on work refuse what would hang a run or exhaust memory
 import numpy as np
 import pytest
 
-from rpod.diagrams.builder import simulate
 from rpod.diagrams.scenario import (
     MAX_DURATION_S,
     MAX_SAMPLES,
@@ -16,6 +15,7 @@ from rpod.diagrams.scenario import (
     starts_in_contact,
     validate_scenario,
 )
+from rpod.diagrams.simulate import simulate
 from rpod.systems.orbital_dynamics import OrbitConfig
 
 
@@ -63,7 +63,19 @@ BAD = [
         "visualization.publish_period_s",
         "at most",
     ),
-    ("max_step_tiny", {"integrator__max_step_s": 1e-12}, "integrator.max_step_s", "at most"),
+    (
+        "max_step_tiny",
+        {"simulator__max_step_size": 1e-12},
+        "simulator.max_step_size",
+        "at most",
+    ),
+    (
+        "rk2_with_error_control",
+        {"simulator__integration_scheme": "runge_kutta2"},
+        "simulator.use_error_control",
+        "no error estimate",
+    ),
+    ("start_time", {"simulator__start_time": 5.0}, "simulator.start_time", "must be 0"),
     (
         "control_period_tiny",
         {"controller__control_period_s": 1e-9},
@@ -90,7 +102,7 @@ def test_limits_themselves_are_accepted():
         thrusters=ThrustersConfig(enabled=False),
     )
     scenario.visualization.publish_period_s = MAX_DURATION_S / MAX_SAMPLES
-    scenario.integrator.max_step_s = 10.0
+    scenario.simulator.max_step_size = 10.0
     validate_scenario(scenario)
 
 

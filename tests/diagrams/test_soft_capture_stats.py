@@ -2,8 +2,8 @@
 
 import pytest
 
-from rpod.scenarios.report import summary_text
 from rpod.diagrams.controllers.soft_capture_stats import soft_capture_rows
+from rpod.scenarios.report import summary_text
 
 
 def _run(scp: int, steps: list[float], accepted=True, captured=True, after=False, status="ok"):

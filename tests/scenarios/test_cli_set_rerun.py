@@ -6,7 +6,7 @@ import json
 import numpy as np
 import pytest
 
-from rpod.diagrams.builder import simulate
+from rpod.diagrams.simulate import simulate
 from rpod.scenarios import cli
 from rpod.scenarios.campaign import apply_overrides, load_campaign, plan_runs
 

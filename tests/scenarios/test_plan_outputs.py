@@ -15,8 +15,8 @@ import types
 import numpy as np
 import pytest
 
-from rpod.diagrams.builder import target_rotation_in_lvlh
 from rpod.diagrams.controllers.soft_capture import planner_config
+from rpod.diagrams.scenario import target_rotation_in_lvlh
 from rpod.models.frames import quaternion_wxyz
 from rpod.models.shapes import ConvexPolytope
 from rpod.planners.plan_check import check_plan

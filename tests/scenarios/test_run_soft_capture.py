@@ -17,9 +17,9 @@ import re
 import numpy as np
 import pytest
 
-from rpod.diagrams.builder import simulate
 from rpod.diagrams.controllers.soft_capture import planner_config
 from rpod.diagrams.recording import find_chromium, screenshot_html
+from rpod.diagrams.simulate import simulate
 from rpod.models.frames import rotation_from_wxyz
 from rpod.scenarios.loader import load_scenario
 from rpod.scenarios.run import run_to_folder

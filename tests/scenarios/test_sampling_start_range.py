@@ -10,6 +10,7 @@ import pytest
 from rpod.diagrams.scenario import ScenarioError
 from rpod.models.cw import safe_ellipse_semi_axes
 from rpod.models.frames import rotation_from_rpy_deg
+from rpod.models.gravity import R_EARTH_M, mean_motion
 from rpod.scenarios import sampling
 from rpod.scenarios.campaign import draw_sample, load_campaign, plan_runs
 from rpod.scenarios.loader import ScenarioFileError
@@ -55,7 +56,7 @@ def test_the_recorded_draw_is_the_accepted_one(tmp_path):
     for run in plan_runs(campaign):
         draw = draw_sample(campaign.sample, run.sample_index)[1]
         state = np.array(run.overrides["chaser.p_LC_L"] + run.overrides["chaser.v_LC_L"])
-        n = sampling.mean_motion(campaign.base.orbit.altitude_m)
+        n = mean_motion(R_EARTH_M + campaign.base.orbit.altitude_m)
         A0, _, B0 = safe_ellipse_semi_axes(state, n)
         assert A0 == pytest.approx(draw["radial_m"], rel=1e-12)
         assert B0 == pytest.approx(draw["cross_track_m"], rel=1e-9, abs=1e-9)

@@ -23,7 +23,7 @@ from campaign_helpers import (
     wait_until,
 )
 
-from rpod.diagrams.builder import simulate
+from rpod.diagrams.simulate import simulate
 from rpod.scenarios.campaign import apply_overrides, load_campaign, plan_runs
 from rpod.scenarios.store import ResultStore
 

@@ -14,13 +14,12 @@ import numpy as np
 import pytest
 from pydrake.systems.analysis import Simulator
 
-from rpod.diagrams.builder import simulate
+from rpod.diagrams.simulate import simulate
 from rpod.models.cw import passively_safe_state
-from rpod.planners import plan_check
+from rpod.planners import checked_plan, plan_check
 from rpod.planners.pointing import min_rotation
 from rpod.planners.soft_capture import SoftCaptureConfig
 from rpod.scenarios.loader import load_scenario
-from rpod.systems import soft_capture_controller
 from rpod.systems.sensed import sensed_vector
 from rpod.systems.soft_capture_controller import (
     MODE_FALLBACK,
@@ -218,7 +217,7 @@ def test_a_replan_the_checker_rejects_keeps_the_previous_plan(monkeypatch):
             report.dynamics_residual = 1.0
         return report
 
-    monkeypatch.setattr(soft_capture_controller, "check_plan", check_rejecting_after_the_first)
+    monkeypatch.setattr(checked_plan, "check_plan", check_rejecting_after_the_first)
     controller, simulator = _initialised(SoftCaptureControllerConfig(), np.zeros(3))
     simulator.AdvanceTo(9.95)
     context = simulator.get_context()

@@ -27,7 +27,8 @@ import pytest
 from test_orbital_dynamics import _eci_reference
 
 import rpod.diagrams.builder as builder_module
-from rpod.diagrams.builder import build_diagram, simulate
+from rpod.diagrams.builder import build_diagram
+from rpod.diagrams.simulate import simulate
 from rpod.models.frames import quaternion_wxyz, rotation_from_rpy_deg
 from rpod.models.gravity import R_EARTH_M
 from rpod.models.thrusters import planar_8, rcs_cube_12

@@ -1,0 +1,166 @@
+"""Simulating a scenario: build its diagram, run it, collect the log, summarise the run.
+
+Owns: `simulate` (a `SimulationResult` with logs, metrics and timings), where a run ends
+(duration_s, or the controller's planned end with `stop.at_plan_end`), the final sample of the
+log (the simulation's end, whatever the log period) and the collection of the loggers' samples
+into the named arrays of log.npz.
+Does not own: the wiring (builder.py), the run-level metrics (metrics.py), what a controller
+adds (its plug-in's `results`), or files (rpod.scenarios.run).
+"""
+
+import dataclasses
+import time
+
+import numpy as np
+from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
+
+from rpod.diagrams import controller_seam
+from rpod.diagrams.builder import DiagramHandles, build_diagram
+from rpod.diagrams.metrics import run_summary
+from rpod.diagrams.scenario import Scenario
+
+
+@dataclasses.dataclass
+class SimulationResult:
+    """What `simulate` returns.
+
+    Attributes:
+        log: time series keyed as in log.npz (time is the first axis of every array).
+        summary: metrics, status and timings (the content of summary.json).
+    """
+
+    log: dict
+    summary: dict
+
+
+def _sample_final_state(context, handles: DiagramHandles) -> None:
+    """Adds the state where the simulation stopped to every log, unless it is already there.
+
+    The loggers sample every log_period_s; the run ends at duration_s (or where the integrator
+    failed), which need not be a sample time. The final metrics (sim_time_s, the final state,
+    delta-v) are read from the log's last row, so that row must be the simulation's end.
+    """
+    now = context.get_time()
+    for logger in handles.loggers.values():
+        times = logger.FindLog(context).sample_times()
+        if len(times) == 0 or times[-1] < now:
+            logger.ForcedPublish(logger.GetMyContextFromRoot(context))
+
+
+def _collect_log(diagram, context, handles: DiagramHandles, scenario: Scenario) -> dict:
+    """Turns the loggers' samples into the named arrays of log.npz."""
+    raw = {}
+    for key, logger in handles.loggers.items():
+        samples = logger.FindLog(context)
+        raw[key] = (samples.sample_times(), samples.data().T)
+    t = raw["relative_state_L"][0]
+    count = len(t)
+    data = {key: value[1][:count] for key, value in raw.items()}
+    log = {"t": t}
+    log["p_LC_L"], log["v_LC_L"] = (
+        data["relative_state_L"][:, 0:3],
+        data["relative_state_L"][:, 3:6],
+    )
+    log["q_IT"], log["w_IT_T"] = data["target_attitude"][:, 0:4], data["target_attitude"][:, 4:7]
+    log["q_IC"], log["w_IC_C"] = data["chaser_attitude"][:, 0:4], data["chaser_attitude"][:, 4:7]
+    log["q_IL"], log["w_IL_L"] = data["q_IL"], data["w_IL_L"]
+    log["p_IT_I"], log["v_IT_I"] = data["target_state_I"][:, 0:3], data["target_state_I"][:, 3:6]
+    log["p_IC_I"], log["v_IC_I"] = data["chaser_state_I"][:, 0:3], data["chaser_state_I"][:, 3:6]
+    log["chaser_mass_kg"] = data["chaser_mass"][:, 0]
+    log["propellant_kg"] = scenario.chaser.mass_kg - log["chaser_mass_kg"]
+    for key in (
+        "separation_m",
+        "corridor_violation_rad",
+        "capture_speed_m_s",
+        "capture_distance_m",
+        "port_distance_m",
+    ):
+        log[key] = data[key][:, 0]
+    n = handles.layout.count if handles.layout is not None else 0
+    zeros = np.zeros((count, n))
+    log["thruster_duty"] = data.get("thruster_duty", zeros)
+    log["thruster_on"] = data.get("thruster_on", zeros)
+    log["command_clipped"] = data.get("command_clipped", zeros)
+    # Without PWM the duty is applied as throttle: delivered equals commanded.
+    log["thruster_delivered_duty"] = data.get("thruster_delivered_duty", log["thruster_duty"])
+    log["body_wrench"] = data.get("body_wrench", np.zeros((count, 6)))
+    for key in handles.wiring.logged if handles.wiring is not None else ():
+        log[key] = data[key]  # the controller's own signals, under the names it gave them
+    return log
+
+
+def _end_time_s(scenario: Scenario, handles: DiagramHandles, context, warnings: list) -> float:
+    """Where the run ends: duration_s, or the controller's planned end plus stop.hold_s when
+    stop.at_plan_end asks and it is earlier. A plan that outlasts the run is a warning."""
+    end_s = scenario.duration_s
+    if handles.wiring is None:
+        return end_s
+    plugin = controller_seam.plugin_for(scenario.controller)
+    planned = plugin.planned_end_s(handles.wiring, context)
+    if planned is None:
+        return end_s
+    if planned > end_s:
+        warnings.append(
+            f"the controller's plan ends at {planned:.1f} s, after the run's end at "
+            f"{end_s:.1f} s: raise duration_s (stop.at_plan_end then ends the run at the plan)"
+        )
+    if scenario.stop.at_plan_end:
+        end_s = min(end_s, planned + scenario.stop.hold_s)
+    return end_s
+
+
+def simulate(scenario: Scenario, meshcat=None) -> SimulationResult:
+    """Builds and simulates a scenario; returns its logs and summary.
+
+    Integrator failures do not raise: the run stops there, and `summary['status']` says why
+    ('ok' or 'failed: ...'); the logs hold what was simulated.
+    """
+    start = time.perf_counter()
+    diagram, handles = build_diagram(scenario, meshcat)
+    simulator = Simulator(diagram)
+    ApplySimulatorConfig(scenario.simulator, simulator)
+    if meshcat is not None:
+        from rpod.diagrams.recording import start_recording
+
+        start_recording(meshcat, fps=max(1.0 / scenario.visualization.publish_period_s, 1.0))
+    # Wall time from here: Initialize runs initialization events (a planning controller's
+    # first plan), which belong to the simulation's cost, not the build's.
+    built = time.perf_counter()
+    status, warnings = "ok", []
+    try:
+        simulator.Initialize()
+        end_s = _end_time_s(scenario, handles, simulator.get_context(), warnings)
+        simulator.AdvanceTo(end_s)
+    except RuntimeError as error:
+        status = f"failed: {str(error).splitlines()[0]}"
+    finished = time.perf_counter()
+    if meshcat is not None:
+        meshcat.StopRecording()
+        meshcat.PublishRecording()
+    context = simulator.get_context()
+    _sample_final_state(context, handles)
+    log = _collect_log(diagram, context, handles, scenario)
+    summary = {"status": status, **run_summary(log, scenario)}
+    outcome = None
+    if handles.wiring is not None:
+        results = controller_seam.plugin_for(scenario.controller).results(
+            scenario, handles.wiring, context, log
+        )
+        log.update(results.log)
+        summary.update(results.summary)
+        outcome = results.outcome
+    summary["warnings"] = warnings
+    # "Did the simulation run" (status) apart from "did the mission succeed" (mission).
+    summary["mission"] = {
+        "success": None if outcome is None else bool(outcome.success),
+        "outcome": "no mission criterion (no controller)" if outcome is None else outcome.text,
+    }
+    integ = simulator.get_integrator()
+    summary.update(
+        wall_time_s=finished - built,
+        build_time_s=built - start,
+        real_time_factor=float(context.get_time() / max(finished - built, 1e-9)),
+        integrator_steps=int(integ.get_num_steps_taken()),
+        derivative_evaluations=int(integ.get_num_derivative_evaluations()),
+    )
+    return SimulationResult(log=log, summary=summary)
