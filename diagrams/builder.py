@@ -36,6 +36,7 @@ from rpod.diagrams.scenario import (
     Scenario,
     body_polytopes,
     chaser_rotation_in_lvlh,
+    docking_geometry,
     make_thruster_layout,
     target_rotation_in_lvlh,
     validate_scenario,
@@ -122,6 +123,7 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
 
     bank = controller = None
     chaser_shape, target_shape = body_polytopes(scenario)
+    docking = docking_geometry(scenario)  # port, axis, corridor, hull: built once
     if layout is not None and not ideal:
         bank = truth
         log("body_wrench", truth.GetOutputPort("body_wrench"))
@@ -195,14 +197,7 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
 
     monitor = builder.AddNamedSystem(
         "safety_monitor",
-        SafetyMonitor(
-            target_shape,
-            chaser_shape,
-            target.docking_port_T,
-            target.docking_axis_T,
-            math.radians(target.corridor_half_angle_deg),
-            chaser.capture_point_C,
-        ),
+        SafetyMonitor(docking, chaser_shape, chaser.capture_point_C),
     )
     connect(sensed_port, monitor.GetInputPort(SENSED_PORT))
 
@@ -225,28 +220,21 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
 
     scene = None
     if meshcat is not None:
-        from rpod.systems.scene import RendezvousScene, SceneConfig  # only when drawing
+        from rpod.systems.scene import RendezvousScene, SceneGeometry  # only when drawing
 
-        visualization = scenario.visualization
-        scene_config = SceneConfig(
+        # What the scene draws is the scenario's own geometry; how is its visualization block.
+        geometry = SceneGeometry(
             target_box_size_m=list(target.size_m),
             chaser_box_size_m=list(chaser.size_m),
-            docking_port_T=list(target.docking_port_T),
-            docking_axis_T=list(target.docking_axis_T),
-            corridor_half_angle_deg=target.corridor_half_angle_deg,
-            corridor_length_m=target.corridor_length_m,
-            publish_period_s=visualization.publish_period_s,
-            trail=visualization.trail,
-            trail_max_points=visualization.trail_max_points,
-            camera_position_L_m=list(visualization.camera_position_L_m),
+            docking_port_T=docking.p_TD_T.tolist(),
+            docking_axis_T=docking.axis_T.tolist(),
+            corridor_half_angle_deg=math.degrees(docking.corridor_half_angle_rad),
+            corridor_length_m=docking.corridor_length_m,
             target_vertices_T=(target_shape.vertices.tolist() if target.shape != "box" else []),
             chaser_vertices_C=(chaser_shape.vertices.tolist() if chaser.shape != "box" else []),
         )
         scene = RendezvousScene.AddToBuilder(
-            builder,
-            meshcat,
-            scene_config,
-            sensed_port,
+            builder, meshcat, scenario.visualization, sensed_port, geometry
         )
         if wiring is not None:
             plugin.add_scene_extras(builder, meshcat, scenario, wiring)

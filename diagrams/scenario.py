@@ -17,6 +17,7 @@ from pydrake.systems.analysis import SimulatorConfig
 
 from rpod.diagrams import controller_seam
 from rpod.models import thrusters as presets
+from rpod.models.docking import DockingGeometry
 from rpod.models.frames import rotation_from_rpy_deg, rotation_from_wxyz
 from rpod.models.gravity import GRAVITY_MODELS, MIN_ALTITUDE_M
 from rpod.models.rigid_body import validate_inertia
@@ -29,6 +30,7 @@ from rpod.models.shapes import (
 from rpod.models.thrusters import ThrusterLayout
 from rpod.planners.pointing import min_rotation
 from rpod.systems.orbital_dynamics import OrbitConfig
+from rpod.systems.scene import SceneConfig
 
 THRUSTER_LAYOUTS = ("rcs_cube_12", "planar_8", "gimbaled_cuboid_8")
 CHASER_SHAPES = ("box", "soft_capture_chaser")
@@ -179,25 +181,6 @@ def default_simulator_config() -> SimulatorConfig:
 
 
 @dataclasses.dataclass
-class VisualizationConfig:
-    """How the Meshcat scene is drawn and recorded (geometry comes from chaser and target).
-
-    Args:
-        publish_period_s: scene update period in simulated time [s].
-        trail: draw the chaser's trail.
-        trail_max_points: trail markers kept (older ones are reused).
-        camera_position_L_m: camera position in LVLH, looking at the target [m].
-    """
-
-    publish_period_s: float = 0.5
-    trail: bool = True
-    trail_max_points: int = 400
-    camera_position_L_m: list[float] = dataclasses.field(
-        default_factory=lambda: [25.0, -40.0, 18.0]
-    )
-
-
-@dataclasses.dataclass
 class StopConfig:
     """Ending a run before duration_s, on the controller's terms.
 
@@ -233,7 +216,8 @@ class Scenario:
             use_error_control, target_realtime_rate, publish_every_time_step; start_time
             must stay 0); runge_kutta5 suits long coasts (far fewer steps at the same
             accuracy).
-        visualization: Meshcat scene and recording settings.
+        visualization: how the Meshcat scene is drawn and recorded: the scene's own config
+            (rpod.systems.scene.SceneConfig); what it draws comes from chaser and target.
     """
 
     description: str = ""
@@ -248,7 +232,9 @@ class Scenario:
     stop: StopConfig = dataclasses.field(default_factory=StopConfig)
     log_period_s: float = 1.0
     simulator: SimulatorConfig = dataclasses.field(default_factory=default_simulator_config)
-    visualization: VisualizationConfig = dataclasses.field(default_factory=VisualizationConfig)
+    visualization: SceneConfig = dataclasses.field(
+        default_factory=lambda: SceneConfig(camera_position_L_m=[25.0, -40.0, 18.0])
+    )
 
 
 def _refresh_controller_union() -> None:
@@ -272,6 +258,19 @@ def make_thruster_layout(scenario: Scenario) -> ThrusterLayout:
     if config.layout == "gimbaled_cuboid_8":
         return presets.gimbaled_cuboid_8(max_thrust_N=config.max_thrust_N, isp_s=config.isp_s)
     raise ValueError(f"unknown thruster layout '{config.layout}'")
+
+
+def docking_geometry(scenario: Scenario) -> DockingGeometry:
+    """The target's docking geometry (port, axis, corridor, true hull), built once from the
+    scenario's target block for every system that uses it."""
+    target = scenario.target
+    return DockingGeometry(
+        p_TD_T=np.asarray(target.docking_port_T, float),
+        axis_T=np.asarray(target.docking_axis_T, float),
+        corridor_half_angle_rad=math.radians(target.corridor_half_angle_deg),
+        corridor_length_m=target.corridor_length_m,
+        hull=body_polytopes(scenario)[1],
+    )
 
 
 def body_polytopes(scenario: Scenario) -> tuple[ConvexPolytope, ConvexPolytope]:
@@ -563,13 +562,12 @@ def validate_scenario(scenario: Scenario) -> None:
         "simulator.start_time",
         f"must be 0 (every controller and PWM period starts at t = 0), got {simulator.start_time}",
     )
-    _positive(scenario.visualization.publish_period_s, "visualization.publish_period_s")
+    try:
+        scenario.visualization.validate()
+    except ValueError as error:
+        field, _, message = str(error).partition(": ")
+        raise ScenarioError(f"visualization.{field}", message) from None
     _positive(scenario.target.corridor_length_m, "target.corridor_length_m")
-    _require(
-        scenario.visualization.trail_max_points >= 1,
-        "visualization.trail_max_points",
-        "must be at least 1",
-    )
     _validate_work(scenario)
     # Last: it needs valid shapes and attitudes.
     _require(

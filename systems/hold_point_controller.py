@@ -35,6 +35,7 @@ from pydrake.math import RotationMatrix
 from pydrake.systems.framework import LeafSystem
 
 from rpod.models.cw import cw_acceleration
+from rpod.models.docking import DockingGeometry
 from rpod.models.frames import rotation_from_wxyz
 from rpod.models.rigid_body import attitude_pd_torque
 from rpod.systems.sensed import Sensed, declare_sensed_input
@@ -131,16 +132,13 @@ class HoldPointController(LeafSystem):
         config: HoldPointControllerConfig,
         chaser_mass_kg: float,
         chaser_inertia: np.ndarray,
-        docking_port_T: np.ndarray,
-        docking_axis_T: np.ndarray,
+        docking: DockingGeometry,
     ):
         super().__init__()
         self._config = config
         self._mass = chaser_mass_kg
         self._J = np.asarray(chaser_inertia, dtype=float)
-        self._p_TH_T = np.asarray(docking_port_T, float) + config.hold_distance_m * _unit(
-            np.asarray(docking_axis_T, float)
-        )
+        self._p_TH_T = docking.p_TD_T + config.hold_distance_m * docking.axis_T
         # R_CK: a fixed frame K in C whose z axis is the capture axis; the law points K.
         capture_C = _unit(np.asarray(config.capture_axis_C, float))
         self._R_CK = _pointing_rotation(capture_C, np.array([1.0, 0.0, 0.0]), np.eye(3)[1])

@@ -19,11 +19,10 @@ Definitions.
   v_E = v_C + w_IC x r_CE, v_D = v_T + w_IT x r_TD.
 """
 
-import math
-
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
+from rpod.models.docking import DockingGeometry
 from rpod.models.frames import lvlh_to_inertial, rotation_from_wxyz
 from rpod.models.shapes import ConvexPolytope, separation_distance
 from rpod.systems.sensed import Sensed, declare_sensed_input
@@ -38,21 +37,17 @@ class SafetyMonitor(LeafSystem):
         port_distance_m (1): |p_DC|, from the docking port D to the chaser's centre of mass.
     """
 
-    def __init__(
-        self,
-        target_shape: ConvexPolytope,
-        chaser_shape: ConvexPolytope,
-        docking_port_T,
-        docking_axis_T,
-        corridor_half_angle_rad: float,
-        capture_point_C,
-    ):
+    def __init__(self, docking: DockingGeometry, chaser_shape: ConvexPolytope, capture_point_C):
+        """Args:
+        docking: the target's docking geometry (port, axis, corridor, hull), in T.
+        chaser_shape: the chaser's true shape, in C.
+        capture_point_C: the chaser's capture point E, in C [m].
+        """
         super().__init__()
-        self._target_shape = target_shape
+        self._docking = docking
+        self._target_shape = docking.hull
         self._chaser_shape = chaser_shape
-        self._p_TD_T = np.asarray(docking_port_T, float)
-        self._a_T = np.asarray(docking_axis_T, float) / np.linalg.norm(docking_axis_T)
-        self._half_angle = corridor_half_angle_rad
+        self._p_TD_T = docking.p_TD_T
         self._p_CE_C = np.asarray(capture_point_C, float)
         self._sensed_port = declare_sensed_input(self)
         self.DeclareVectorOutputPort("separation_m", 1, self._calc_separation)
@@ -83,8 +78,7 @@ class SafetyMonitor(LeafSystem):
     def _calc_corridor(self, context, output):
         R_LT, _, p_LC_L, *_ = self._poses(context)
         p_DC_L = p_LC_L - R_LT @ self._p_TD_T
-        cos_angle = (R_LT @ self._a_T) @ p_DC_L / max(np.linalg.norm(p_DC_L), 1e-12)
-        output.SetAtIndex(0, math.acos(float(np.clip(cos_angle, -1, 1))) - self._half_angle)
+        output.SetAtIndex(0, self._docking.corridor_violation_rad(R_LT.T @ p_DC_L))
 
     def _calc_capture_distance(self, context, output):
         R_LT, R_LC, p_LC_L, *_ = self._poses(context)

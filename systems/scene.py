@@ -98,23 +98,13 @@ PLAN_RGBA = Rgba(0.85, 0.10, 0.60, 1.0)
 
 @dataclass
 class SceneConfig:
-    """What the Meshcat scene draws and how often it is updated.
+    """How the Meshcat scene is drawn and updated (a scenario's `visualization` block).
 
-    Loadable with `pydrake.common.yaml.yaml_load_typed`; `validate()` names a bad field.
+    The geometry it draws (bodies, docking port and axis, corridor) is the scenario's own and
+    comes in a `SceneGeometry`. Loadable with `pydrake.common.yaml.yaml_load_typed`;
+    `validate()` names a bad field.
     """
 
-    # Target box edge lengths along the T axes (x, y, z) [m].
-    target_box_size_m: list[float] = field(default_factory=lambda: [2.0, 2.0, 2.0])
-    # Chaser box edge lengths along the C axes (x, y, z) [m].
-    chaser_box_size_m: list[float] = field(default_factory=lambda: [1.5, 1.5, 1.5])
-    # Docking port: a point of the target, from the target CoM, expressed in T [m].
-    docking_port_T: list[float] = field(default_factory=lambda: [0.0, 0.0, 1.0])
-    # Docking axis direction in T (normalised here); the corridor opens along it.
-    docking_axis_T: list[float] = field(default_factory=lambda: [0.0, 0.0, 1.0])
-    # Approach-corridor cone half angle about the docking axis [deg].
-    corridor_half_angle_deg: float = 30.0
-    # Approach-corridor length from the docking port along the axis [m].
-    corridor_length_m: float = 20.0
     # Period of scene updates (and of the MeshcatVisualizer) in simulated time [s].
     publish_period_s: float = 0.5
     # Draw the chaser's trail (past positions).
@@ -132,6 +122,40 @@ class SceneConfig:
     # Keep Meshcat's grey gradient background. It is drawn as a finite box, whose faces cut
     # through the view once the camera is some 30 m out; off gives a plain white background.
     meshcat_background: bool = False
+
+    def validate(self) -> None:
+        """Raises ValueError naming the first bad field."""
+        for name in ("publish_period_s", "trail_marker_radius_m", "lvlh_axis_length_m"):
+            if not np.isfinite(getattr(self, name)) or getattr(self, name) <= 0.0:
+                raise ValueError(f"{name}: must be positive, got {getattr(self, name)}")
+        if self.trail_max_points < 1 or self.trail_stride < 1:
+            raise ValueError("trail_max_points: trail_max_points and trail_stride must be >= 1")
+        if len(self.camera_position_L_m) not in (0, 3) or not np.all(
+            np.isfinite(np.asarray(self.camera_position_L_m, dtype=float))
+        ):
+            raise ValueError("camera_position_L_m: must be empty or 3 finite numbers")
+
+
+@dataclass
+class SceneGeometry:
+    """What the scene draws: the bodies, the docking port and axis, the approach corridor.
+
+    Built from the scenario (rpod.diagrams), not written by a user; `validate()` names a bad
+    field.
+    """
+
+    # Target box edge lengths along the T axes (x, y, z) [m].
+    target_box_size_m: list[float] = field(default_factory=lambda: [2.0, 2.0, 2.0])
+    # Chaser box edge lengths along the C axes (x, y, z) [m].
+    chaser_box_size_m: list[float] = field(default_factory=lambda: [1.5, 1.5, 1.5])
+    # Docking port: a point of the target, from the target CoM, expressed in T [m].
+    docking_port_T: list[float] = field(default_factory=lambda: [0.0, 0.0, 1.0])
+    # Docking axis direction in T (normalised here); the corridor opens along it.
+    docking_axis_T: list[float] = field(default_factory=lambda: [0.0, 0.0, 1.0])
+    # Approach-corridor cone half angle about the docking axis [deg].
+    corridor_half_angle_deg: float = 30.0
+    # Approach-corridor length from the docking port along the axis [m].
+    corridor_length_m: float = 20.0
     # Target polytope vertices (V, 3) in T [m]; when given, the target is drawn as their convex
     # hull instead of the box (target_box_size_m is then unused).
     target_vertices_T: list[list[float]] = field(default_factory=list)
@@ -144,30 +168,20 @@ class SceneConfig:
         def _vector(name: str, positive: bool = False, nonzero: bool = False) -> None:
             value = np.asarray(getattr(self, name), dtype=float)
             if value.shape != (3,) or not np.all(np.isfinite(value)):
-                raise ValueError(f"SceneConfig.{name} must be 3 finite numbers, got {value}")
+                raise ValueError(f"SceneGeometry.{name} must be 3 finite numbers, got {value}")
             if positive and np.any(value <= 0.0):
-                raise ValueError(f"SceneConfig.{name} must be positive, got {value}")
+                raise ValueError(f"SceneGeometry.{name} must be positive, got {value}")
             if nonzero and np.linalg.norm(value) < 1e-9:
-                raise ValueError(f"SceneConfig.{name} must be a nonzero vector")
+                raise ValueError(f"SceneGeometry.{name} must be a nonzero vector")
 
         _vector("target_box_size_m", positive=True)
         _vector("chaser_box_size_m", positive=True)
         _vector("docking_port_T")
         _vector("docking_axis_T", nonzero=True)
         if not 0.0 < self.corridor_half_angle_deg < 90.0:
-            raise ValueError("SceneConfig.corridor_half_angle_deg must be in (0, 90)")
-        for name in (
-            "corridor_length_m",
-            "publish_period_s",
-            "trail_marker_radius_m",
-            "lvlh_axis_length_m",
-        ):
-            if not np.isfinite(getattr(self, name)) or getattr(self, name) <= 0.0:
-                raise ValueError(f"SceneConfig.{name} must be positive")
-        if self.trail_max_points < 1 or self.trail_stride < 1:
-            raise ValueError("SceneConfig.trail_max_points and trail_stride must be >= 1")
-        if len(self.camera_position_L_m) not in (0, 3):
-            raise ValueError("SceneConfig.camera_position_L_m must be empty or 3 numbers")
+            raise ValueError("SceneGeometry.corridor_half_angle_deg must be in (0, 90)")
+        if not np.isfinite(self.corridor_length_m) or self.corridor_length_m <= 0.0:
+            raise ValueError("SceneGeometry.corridor_length_m must be positive")
         for name in ("target_vertices_T", "chaser_vertices_C"):
             vertices = np.asarray(getattr(self, name), dtype=float)
             if vertices.size and (
@@ -176,7 +190,7 @@ class SceneConfig:
                 or len(vertices) < 4
                 or not np.all(np.isfinite(vertices))
             ):
-                raise ValueError(f"SceneConfig.{name} must be empty or >= 4 finite 3-D points")
+                raise ValueError(f"SceneGeometry.{name} must be empty or >= 4 finite 3-D points")
 
     def body_extent_m(self, body: str) -> float:
         """The largest edge of the body's bounding box ('target' or 'chaser') [m]."""
@@ -232,19 +246,28 @@ class RendezvousScene(LeafSystem):
     """
 
     def __init__(
-        self, scene_graph: SceneGraph, meshcat: Meshcat, config: SceneConfig, prefix: str = "rpod"
+        self,
+        scene_graph: SceneGraph,
+        meshcat: Meshcat,
+        config: SceneConfig,
+        geometry: SceneGeometry | None = None,
+        prefix: str = "rpod",
     ):
         """Registers the body geometry with `scene_graph` and keeps `meshcat` for overlays.
 
         Args:
             scene_graph: SceneGraph that receives the target and chaser frames and boxes.
             meshcat: where the overlays are drawn.
-            config: what to draw; validated here.
+            config: how to draw; validated here.
+            geometry: what to draw (default: SceneGeometry()); validated here.
             prefix: Meshcat path prefix; overlays go under "<prefix>/overlay".
         """
         super().__init__()
+        geometry = geometry if geometry is not None else SceneGeometry()
         config.validate()
+        geometry.validate()
         self._config = config
+        self._geometry = geometry
         self._meshcat = meshcat
         self._overlay_path = f"{prefix}/overlay"
 
@@ -254,15 +277,15 @@ class RendezvousScene(LeafSystem):
         self._target_frame_id = self._RegisterBody(
             scene_graph,
             "target",
-            _body_shape("target", config.target_box_size_m, config.target_vertices_T),
-            config.body_extent_m("target"),
+            _body_shape("target", geometry.target_box_size_m, geometry.target_vertices_T),
+            geometry.body_extent_m("target"),
             TARGET_RGBA,
         )
         self._chaser_frame_id = self._RegisterBody(
             scene_graph,
             "chaser",
-            _body_shape("chaser", config.chaser_box_size_m, config.chaser_vertices_C),
-            config.body_extent_m("chaser"),
+            _body_shape("chaser", geometry.chaser_box_size_m, geometry.chaser_vertices_C),
+            geometry.body_extent_m("chaser"),
             CHASER_RGBA,
         )
 
@@ -350,6 +373,7 @@ class RendezvousScene(LeafSystem):
     def _Initialize(self, context) -> None:
         """Creates the overlay objects, hides the trail pool, and publishes the first state."""
         meshcat, config, root = self._meshcat, self._config, self._overlay_path
+        geometry = self._geometry
         t = context.get_time()
         meshcat.Delete(root)
 
@@ -362,20 +386,20 @@ class RendezvousScene(LeafSystem):
 
         # Docking port, docking axis and corridor, fixed in T under the target node.
         target = f"{root}/target_frame"
-        p_TP_T = np.asarray(config.docking_port_T, dtype=float)
-        X_TK = RigidTransform(RotationMatrix.MakeFromOneVector(config.docking_axis_T, 2), p_TP_T)
-        port_radius = 0.06 * config.body_extent_m("target")
+        p_TP_T = np.asarray(geometry.docking_port_T, dtype=float)
+        X_TK = RigidTransform(RotationMatrix.MakeFromOneVector(geometry.docking_axis_T, 2), p_TP_T)
+        port_radius = 0.06 * geometry.body_extent_m("target")
         meshcat.SetObject(f"{target}/docking_port", Sphere(port_radius), DOCKING_AXIS_RGBA)
         meshcat.SetTransform(f"{target}/docking_port", RigidTransform(p_TP_T))
-        axis_length = 1.1 * config.corridor_length_m
+        axis_length = 1.1 * geometry.corridor_length_m
         meshcat.SetObject(
             f"{target}/docking_axis", Cylinder(0.3 * port_radius, axis_length), DOCKING_AXIS_RGBA
         )
         meshcat.SetTransform(
             f"{target}/docking_axis", X_TK @ RigidTransform([0.0, 0.0, axis_length / 2.0])
         )
-        height = config.corridor_length_m
-        base_radius = height * np.tan(np.radians(config.corridor_half_angle_deg))
+        height = geometry.corridor_length_m
+        base_radius = height * np.tan(np.radians(geometry.corridor_half_angle_deg))
         meshcat.SetObject(
             f"{target}/corridor/cone", MeshcatCone(height, base_radius, base_radius), CORRIDOR_RGBA
         )
@@ -449,6 +473,7 @@ class RendezvousScene(LeafSystem):
         meshcat: Meshcat,
         config: SceneConfig,
         sensed: OutputPort,
+        geometry: SceneGeometry | None = None,
         scene_graph: SceneGraph | None = None,
         name: str = "scene",
         prefix: str = "rpod",
@@ -463,8 +488,9 @@ class RendezvousScene(LeafSystem):
         Args:
             builder: the diagram builder holding the sensed port.
             meshcat: Meshcat to draw in.
-            config: scene config.
+            config: how to draw (a scenario's `visualization` block).
             sensed: the sensed bundle's port (27, rpod.systems.sensed).
+            geometry: what to draw (default: SceneGeometry()).
             scene_graph: an existing SceneGraph in `builder` to register with; a new one is
                 added when None.
             name: name of the scene system in the diagram.
@@ -475,7 +501,9 @@ class RendezvousScene(LeafSystem):
         """
         if scene_graph is None:
             scene_graph = builder.AddNamedSystem(f"{name}.scene_graph", SceneGraph())
-        scene = builder.AddNamedSystem(name, RendezvousScene(scene_graph, meshcat, config, prefix))
+        scene = builder.AddNamedSystem(
+            name, RendezvousScene(scene_graph, meshcat, config, geometry, prefix)
+        )
         builder.Connect(sensed, scene.GetInputPort(SENSED_PORT))
         builder.Connect(
             scene.get_geometry_pose_output_port(),

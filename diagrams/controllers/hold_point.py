@@ -22,7 +22,7 @@ from rpod.diagrams.controller_seam import (
     MissionOutcome,
     register_controller,
 )
-from rpod.diagrams.scenario import ScenarioError
+from rpod.diagrams.scenario import ScenarioError, docking_geometry
 from rpod.models.frames import rotations_from_wxyz
 from rpod.systems.hold_point_controller import HoldPointController, HoldPointControllerConfig
 from rpod.systems.sensed import SENSED_PORT
@@ -67,15 +67,14 @@ class HoldPointPlugin(ControllerPlugin):
             raise ScenarioError("thrusters.enabled", "the !HoldPoint controller needs thrusters")
 
     def add_to_diagram(self, builder, scenario, sensed) -> ControllerWiring:
-        config, target = scenario.controller, scenario.target
+        config = scenario.controller
         controller = builder.AddNamedSystem(
             self.system_name,
             HoldPointController(
                 config,
                 scenario.chaser.mass_kg,
                 np.asarray(scenario.chaser.inertia_kg_m2, float),
-                np.asarray(target.docking_port_T, float),
-                np.asarray(target.docking_axis_T, float),
+                docking_geometry(scenario),
             ),
         )
         builder.Connect(sensed, controller.GetInputPort(SENSED_PORT))

@@ -13,12 +13,21 @@ import numpy as np
 import pytest
 from pydrake.systems.analysis import Simulator
 
+from rpod.models.docking import DockingGeometry
+from rpod.models.shapes import ConvexPolytope
 from rpod.systems.hold_point_controller import HoldPointController, HoldPointControllerConfig
 from rpod.systems.sensed import sensed_vector
 
 MASS = 500.0
 J = np.diag([190.0, 190.0, 190.0])
 Q_IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
+DOCKING = DockingGeometry(  # the port 1 m up the target's z axis, the axis along z
+    p_TD_T=[0.0, 0.0, 1.0],
+    axis_T=[0.0, 0.0, 1.0],
+    corridor_half_angle_rad=math.radians(30.0),
+    corridor_length_m=20.0,
+    hull=ConvexPolytope.box([2.0, 2.0, 2.0]),
+)
 Q_FLIP_X = np.array([0.0, 1.0, 0.0, 0.0])  # 180 deg about x: z_C = -z, x_C = x
 
 
@@ -32,7 +41,7 @@ def evaluate(
     config=None,
 ):
     config = config or HoldPointControllerConfig()
-    controller = HoldPointController(config, MASS, J, [0.0, 0.0, 1.0], [0.0, 0.0, 1.0])
+    controller = HoldPointController(config, MASS, J, DOCKING)
     context = controller.CreateDefaultContext()
     controller.GetInputPort("sensed").FixValue(
         context,
@@ -49,7 +58,7 @@ def evaluate(
 
 
 def test_structure():
-    controller = HoldPointController(HoldPointControllerConfig(), MASS, J, [0, 0, 1], [0, 0, 1])
+    controller = HoldPointController(HoldPointControllerConfig(), MASS, J, DOCKING)
     sizes = {
         controller.get_input_port(i).get_name(): controller.get_input_port(i).size()
         for i in range(controller.num_input_ports())

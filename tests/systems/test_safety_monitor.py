@@ -10,6 +10,7 @@ import math
 import numpy as np
 import pytest
 
+from rpod.models.docking import DockingGeometry
 from rpod.models.shapes import ConvexPolytope
 from rpod.systems.safety_monitor import SafetyMonitor
 from rpod.systems.sensed import sensed_vector
@@ -18,14 +19,14 @@ IDENTITY_Q = np.array([1.0, 0.0, 0.0, 0.0])
 
 
 def make(corridor_deg=30.0):
-    monitor = SafetyMonitor(
-        ConvexPolytope.box([2.0, 2.0, 2.0]),
-        ConvexPolytope.box([1.0, 1.0, 1.0]),
-        docking_port_T=[0.0, 0.0, 1.0],
-        docking_axis_T=[0.0, 0.0, 1.0],
+    docking = DockingGeometry(
+        p_TD_T=[0.0, 0.0, 1.0],
+        axis_T=[0.0, 0.0, 1.0],
         corridor_half_angle_rad=math.radians(corridor_deg),
-        capture_point_C=[0.0, 0.0, -0.5],
+        corridor_length_m=20.0,
+        hull=ConvexPolytope.box([2.0, 2.0, 2.0]),
     )
+    monitor = SafetyMonitor(docking, ConvexPolytope.box([1.0, 1.0, 1.0]), [0.0, 0.0, -0.5])
     return monitor, monitor.CreateDefaultContext()
 
 

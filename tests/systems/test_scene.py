@@ -27,7 +27,7 @@ from rpod.diagrams.recording import (
     screenshot_html,
     start_recording,
 )
-from rpod.systems.scene import RendezvousScene, SceneConfig
+from rpod.systems.scene import RendezvousScene, SceneConfig, SceneGeometry
 from rpod.systems.sensed import SENSED_FIELDS, sensed_vector
 
 CHROMIUM = Path("/usr/bin/chromium")
@@ -71,22 +71,24 @@ def _add_sources(builder: DiagramBuilder, q_IL: np.ndarray) -> dict:
 
 
 def test_config_defaults_and_validation():
-    config = SceneConfig()
+    """How to draw (SceneConfig, a scenario's visualization block) apart from what (SceneGeometry,
+    from the scenario's bodies and docking geometry)."""
+    config, geometry = SceneConfig(), SceneGeometry()
     config.validate()
-    assert config.target_box_size_m == [2.0, 2.0, 2.0]
-    assert config.chaser_box_size_m == [1.5, 1.5, 1.5]
+    geometry.validate()
+    assert geometry.target_box_size_m == [2.0, 2.0, 2.0]
+    assert geometry.chaser_box_size_m == [1.5, 1.5, 1.5]
     assert config.publish_period_s == 0.5 and config.trail
     loaded = yaml_load_typed(
-        schema=SceneConfig,
-        data="{docking_port_T: [1, 0, 0], corridor_half_angle_deg: 20, trail: false}",
-        defaults=SceneConfig(),
+        schema=SceneConfig, data="{publish_period_s: 0.2, trail: false}", defaults=SceneConfig()
     )
-    assert loaded.docking_port_T == [1.0, 0.0, 0.0] and not loaded.trail
-    assert loaded.corridor_half_angle_deg == 20.0 and loaded.corridor_length_m == 20.0
+    assert loaded.publish_period_s == 0.2 and not loaded.trail and loaded.trail_max_points == 400
     with pytest.raises(ValueError, match="docking_axis_T"):
-        SceneConfig(docking_axis_T=[0.0, 0.0, 0.0]).validate()
+        SceneGeometry(docking_axis_T=[0.0, 0.0, 0.0]).validate()
     with pytest.raises(ValueError, match="corridor_half_angle_deg"):
-        SceneConfig(corridor_half_angle_deg=95.0).validate()
+        SceneGeometry(corridor_half_angle_deg=95.0).validate()
+    with pytest.raises(ValueError, match="publish_period_s"):
+        SceneConfig(publish_period_s=0.0).validate()
 
 
 def test_poses_in_lvlh_match_independent_rotation():
@@ -231,11 +233,11 @@ def _pixel_counts_by_colour(png: Path) -> dict[str, int]:
 
 def test_recording_html_replays_scene_and_renders(tmp_path):
     """20 s with recording: the HTML holds the animation, and Chromium draws the bodies."""
-    config = SceneConfig(docking_port_T=[1.0, 0.0, 0.0], docking_axis_T=[1.0, 0.0, 0.0])
+    geometry = SceneGeometry(docking_port_T=[1.0, 0.0, 0.0], docking_axis_T=[1.0, 0.0, 0.0])
     meshcat = make_headless_meshcat()
     builder = DiagramBuilder()
     ports = _add_sources(builder, np.array([1.0, 0.0, 0.0, 0.0]))
-    RendezvousScene.AddToBuilder(builder, meshcat, config, **ports)
+    RendezvousScene.AddToBuilder(builder, meshcat, SceneConfig(), **ports, geometry=geometry)
     diagram = builder.Build()
     for name in ("scene", "scene.scene_graph", "scene.meshcat_visualizer"):
         assert diagram.HasSubsystemNamed(name), name

@@ -12,7 +12,13 @@ from pydrake.common.value import AbstractValue
 from pydrake.geometry import Box, Convex, SceneGraph
 
 from rpod.models.shapes import soft_capture_chaser_hull, soft_capture_target_hull
-from rpod.systems.scene import PlannedPathOverlay, RendezvousScene, SceneConfig, convex_hull_obj
+from rpod.systems.scene import (
+    PlannedPathOverlay,
+    RendezvousScene,
+    SceneConfig,
+    SceneGeometry,
+    convex_hull_obj,
+)
 from rpod.systems.soft_capture_controller import PlannedPath
 
 
@@ -45,11 +51,11 @@ def test_hull_mesh_of_the_target_encloses_the_prism_volume_and_faces_outward():
 
 def test_a_body_given_by_vertices_is_registered_as_its_convex_hull():
     scene_graph = SceneGraph()
-    config = SceneConfig(
+    geometry = SceneGeometry(
         target_vertices_T=soft_capture_target_hull().vertices.tolist(),
         chaser_vertices_C=soft_capture_chaser_hull().vertices.tolist(),
     )
-    scene = RendezvousScene(scene_graph, _Recorder(), config)
+    scene = RendezvousScene(scene_graph, _Recorder(), SceneConfig(), geometry)
     inspector = scene_graph.model_inspector()
     for frame_id in (scene.target_frame_id(), scene.chaser_frame_id()):
         shapes = [inspector.GetShape(g) for g in inspector.GetGeometries(frame_id)]
