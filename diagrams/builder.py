@@ -6,15 +6,17 @@ and `DiagramHandles`.
 Does not own: the scenario's model objects (thruster presets, shapes, initial attitudes:
 scenario.py), running and summarising (simulate.py, metrics.py), files (rpod.scenarios).
 
-Signal flow (one period of delay between the controller's sample and the thrusters, as on a
-real flight computer: the PWM latches the duty computed at the previous sample). The controller
+Signal flow (the PWM latches, at each period start, the duty the controller holds then:
+systems/pwm.py says which sample that is). The controller
 is whatever plug-in the scenario's `controller: !Tag` names (rpod.diagrams.controller_seam); it
 reads the sensed bundle and drives one of the actuation paths, which the builder wires:
 
     truth --relative state, LVLH, both attitudes--> sensed (Multiplexer) --> controller, monitor
     path 1: controller --body wrench--> WrenchAllocator --duty--> PwmModulator --on/off--> truth
     path 2: controller --per-thruster levels--> PwmModulator --on/off--> truth
-    (the truth holds the thruster bank: rpod.systems.truth)
+            controller --force vectors (gimbaled)--> ThrusterBank --wrench, mass flow--> truth
+    path 3: controller --ideal force/acceleration--> IdealActuator --wrench, mass flow--> truth
+    (a fixed bank lives inside the truth: rpod.systems.truth)
 
 The plug-in's `results` adds its summary entries (and the mission outcome) and log arrays.
 """
@@ -90,7 +92,12 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
     sensed_port = bundle.get_output_port()
     plugin = controller_seam.plugin_for(scenario.controller)
     wiring = plugin.add_to_diagram(builder, scenario, sensed_port) if plugin else None
+    if wiring is not None and wiring.actuation is not plugin.actuation:
+        raise ValueError(f"!{plugin.tag} declared {plugin.actuation} but wired {wiring.actuation}")
     ideal = wiring is not None and wiring.actuation is Actuation.IDEAL
+    gimbaled = layout is not None and layout.gimbaled and not ideal
+    # The truth holds a fixed bank itself; an ideal actuator or a gimbaled bank (its force
+    # vectors clipped by ThrusterBank) hands it a body wrench and a mass flow instead.
     # One system holds the whole continuous truth: both orbits, both attitudes, the chaser's
     # mass and the thrusters' wrench (rpod.systems.truth says why).
     truth = builder.AddNamedSystem(
@@ -106,8 +113,8 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
             J_C,
             quaternion_wxyz(R_IL0 @ chaser_rotation_in_lvlh(scenario)),
             np.radians(chaser.w_IC_C_deg_s),
-            None if ideal else layout,
-            wrench_input=ideal,
+            None if ideal or gimbaled else layout,
+            wrench_input=ideal or gimbaled,
         ),
     )
     for index, (name, _) in enumerate(SENSED_FIELDS):
@@ -124,10 +131,17 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
     bank = controller = None
     chaser_shape, target_shape = body_polytopes(scenario)
     docking = docking_geometry(scenario)  # port, axis, corridor, hull: built once
-    if layout is not None and not ideal:
+    if gimbaled:
+        bank = builder.AddNamedSystem("thruster_bank", ThrusterBank(layout))
+        connect(bank.GetOutputPort("body_wrench"), truth.GetInputPort("body_wrench"))
+        connect(
+            bank.GetOutputPort("propellant_mass_flow"), truth.GetInputPort("propellant_mass_flow")
+        )
+    elif layout is not None and not ideal:
         bank = truth
-        log("body_wrench", truth.GetOutputPort("body_wrench"))
-        log("command_clipped", truth.GetOutputPort("command_clipped"))
+    if bank is not None:
+        log("body_wrench", bank.GetOutputPort("body_wrench"))
+        log("command_clipped", bank.GetOutputPort("command_clipped"))
 
     relative = orbital.GetOutputPort("relative_state_L")
     q_IL = orbital.GetOutputPort("q_IL")
@@ -143,7 +157,15 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
         controller = wiring.system
         for name, port in wiring.logged.items():
             log(name, port)
-    if bank is not None:
+    if gimbaled:  # path 2 with force vectors (3 per thruster, in C): no PWM
+        if wiring is None:
+            idle = ConstantVectorSource(np.zeros(layout.command_size))
+            forces = builder.AddNamedSystem("idle", idle).get_output_port()
+        else:
+            forces = wiring.command
+        connect(forces, bank.GetInputPort("thruster_command"))
+        log("thruster_force_C", forces)
+    elif bank is not None:
         if wiring is None:
             idle = builder.AddNamedSystem("idle", ConstantVectorSource(np.zeros(layout.count)))
             duty = idle.get_output_port()

@@ -130,6 +130,7 @@ class ControllerPlugin:
 
     config_type: type = None  # the config dataclass; its class name is the YAML tag
     system_name: str = "controller"  # the controller system's name in the diagram
+    actuation: Actuation = Actuation.BODY_WRENCH  # the path it drives (checked at load)
 
     @property
     def tag(self) -> str:

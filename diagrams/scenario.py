@@ -33,6 +33,7 @@ from rpod.systems.orbital_dynamics import OrbitConfig
 from rpod.systems.scene import SceneConfig
 
 THRUSTER_LAYOUTS = ("rcs_cube_12", "planar_8", "gimbaled_cuboid_8")
+GIMBALED_LAYOUTS = ("gimbaled_cuboid_8",)  # per-thruster force vectors (paper 001 eqs. 16-17)
 CHASER_SHAPES = ("box", "soft_capture_chaser")
 TARGET_SHAPES = ("box", "soft_capture_target")
 INTEGRATION_SCHEMES = (
@@ -414,6 +415,26 @@ def _validate_work(scenario: Scenario) -> None:
         )
 
 
+def _validate_actuation(plugin, scenario: Scenario) -> None:
+    """The controller's actuation path fits the thrusters (rpod.diagrams.controller_seam)."""
+    thrusters, path, tag = scenario.thrusters, plugin.actuation, f"!{plugin.tag}"
+    if path is controller_seam.Actuation.IDEAL:
+        return  # straight to the truth; thrusters.isp_s prices the propellant
+    _require(
+        thrusters.enabled,
+        "thrusters.enabled",
+        f"the {tag} controller drives the thrusters ({path.value}): enable them",
+    )
+    gimbaled = thrusters.layout in GIMBALED_LAYOUTS
+    _require(
+        not (gimbaled and path is controller_seam.Actuation.BODY_WRENCH),
+        "thrusters.layout",
+        f"{thrusters.layout} takes force vectors per thruster, and {tag} drives a body wrench "
+        "(the allocator handles fixed thrusters only): choose a fixed layout or a controller "
+        "on per-thruster commands",
+    )
+
+
 def validate_scenario(scenario: Scenario) -> None:
     """Raises ScenarioError naming the first invalid field of the scenario."""
     orbit = scenario.orbit
@@ -501,12 +522,6 @@ def validate_scenario(scenario: Scenario) -> None:
             "thrusters.layout",
             f"must be one of {THRUSTER_LAYOUTS}, got '{thrusters.layout}'",
         )
-        _require(
-            thrusters.layout != "gimbaled_cuboid_8",
-            "thrusters.layout",
-            "gimbaled_cuboid_8 needs a force-vector controller (the NMPC of paper 001); "
-            "the hold-point allocator drives fixed thrusters only",
-        )
         _positive(thrusters.max_thrust_N, "thrusters.max_thrust_N")
         _positive(thrusters.isp_s, "thrusters.isp_s")
         _positive(thrusters.size_m, "thrusters.size_m")
@@ -524,6 +539,7 @@ def validate_scenario(scenario: Scenario) -> None:
     controller = scenario.controller
     if controller is not None:
         plugin = controller_seam.plugin_for(controller)  # KeyError: a programming error
+        _validate_actuation(plugin, scenario)
         plugin.validate(controller, scenario)
         period = getattr(controller, "control_period_s", None)
         _require(

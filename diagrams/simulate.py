@@ -84,6 +84,8 @@ def _collect_log(diagram, context, handles: DiagramHandles, scenario: Scenario) 
     # Without PWM the duty is applied as throttle: delivered equals commanded.
     log["thruster_delivered_duty"] = data.get("thruster_delivered_duty", log["thruster_duty"])
     log["body_wrench"] = data.get("body_wrench", np.zeros((count, 6)))
+    if "thruster_force_C" in data:  # a gimbaled bank: the commanded force vectors (3 each)
+        log["thruster_force_C"] = data["thruster_force_C"]
     for key in handles.wiring.logged if handles.wiring is not None else ():
         log[key] = data[key]  # the controller's own signals, under the names it gave them
     return log
@@ -153,7 +155,11 @@ def simulate(scenario: Scenario, meshcat=None) -> SimulationResult:
     # "Did the simulation run" (status) apart from "did the mission succeed" (mission).
     summary["mission"] = {
         "success": None if outcome is None else bool(outcome.success),
-        "outcome": "no mission criterion (no controller)" if outcome is None else outcome.text,
+        "outcome": outcome.text
+        if outcome is not None
+        else "no controller: no mission to judge"
+        if handles.wiring is None
+        else "no mission criterion (the controller gives none)",
     }
     integ = simulator.get_integrator()
     summary.update(

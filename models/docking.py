@@ -2,7 +2,9 @@
 
 Owns: `DockingGeometry` (the docking port D, the docking axis, the approach corridor's circular
 cone and extent, and the target's true hull, all in the target body frame T) and the corridor's
-angle law, so that the safety monitor, the controllers and the scene read the same numbers.
+angle law, so that the safety monitor, the controllers and the scene read the same numbers; and
+paper 000's capture pose (`R_TC_CAPTURE`, `capture_reach_T`), which the planner, its checker and
+the closed loop share.
 Does not own: the scenario fields it is built from (rpod.diagrams.scenario.docking_geometry),
 or paper 004's polyhedral corridor (a different shape, kept apart when it comes).
 """
@@ -51,3 +53,14 @@ class DockingGeometry:
         p = np.asarray(p_DX_T, dtype=float)
         cos_angle = float(self.axis_T @ p) / max(float(np.linalg.norm(p)), 1e-12)
         return math.acos(min(1.0, max(-1.0, cos_angle))) - self.corridor_half_angle_rad
+
+
+# Paper 000's capture pose: the chaser turned by 180 deg about the target's y axis, Q_y(pi), so
+# that its capture axis D_c faces the target's D_t (Table I: D_c = D_t = [0, 0, 2.7] m).
+R_TC_CAPTURE = np.diag([-1.0, 1.0, -1.0])
+
+
+def capture_reach_T(p_CDc_C, p_TDt_T) -> np.ndarray:
+    """The chaser's centre of mass at capture, from the target's, in T: the capture points meet,
+    D_t = p_TC + R_TC D_c, so p_TC = D_t - R_TC_CAPTURE D_c (= D_t + D_c for Table I)."""
+    return np.asarray(p_TDt_T, dtype=float) - R_TC_CAPTURE @ np.asarray(p_CDc_C, dtype=float)

@@ -23,6 +23,7 @@ from scipy.linalg import expm
 from scipy.optimize import linprog
 
 from rpod.models.cw import cw_continuous
+from rpod.models.docking import capture_reach_T
 from rpod.models.frames import rotations_from_wxyz
 from rpod.models.gravity import mean_motion
 from rpod.models.shapes import soft_capture_chaser_hull, soft_capture_target_hull
@@ -45,7 +46,6 @@ DEFAULT_TOLERANCES = {
     "alpha_mismatch": 1e-7,  # two exact LPs (simplex) on the same poses
     "prediction_mismatch": 1e-12,  # the plan must carry the prediction's own knots
 }
-_R_Y_PI = np.diag([-1.0, 1.0, -1.0])
 
 
 @dataclass
@@ -214,7 +214,7 @@ def check_plan(
     # Terminal position (13) and velocity (14).
     R_N, w_N = R_LT[-1], w_IT_T[-1]
     w_LT_T = w_N - R_N.T @ np.array([0.0, 0.0, float(prediction.n_orbit)])
-    reach_T = D_t - _R_Y_PI @ D_c
+    reach_T = capture_reach_T(D_c, D_t)
     lever_T = reach_T if config.terminal_velocity_point == "chaser_capture_point" else D_t
     p_star = R_N @ reach_T
     v_star = R_N @ np.cross(w_LT_T, lever_T)

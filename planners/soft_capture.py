@@ -42,6 +42,7 @@ from pydrake.math import RotationMatrix
 from pydrake.trajectories import PiecewisePolynomial
 
 from rpod.models.collision import ScalingMetricProgram
+from rpod.models.docking import capture_reach_T
 from rpod.models.frames import rotations_from_wxyz
 from rpod.models.gravity import mean_motion
 from rpod.models.shapes import soft_capture_chaser_hull, soft_capture_target_hull
@@ -94,9 +95,6 @@ class PlanTrajectories:
     position_L: PiecewisePolynomial
     velocity_L: PiecewisePolynomial
     force_L: PiecewisePolynomial
-
-
-_R_Y_PI = np.diag([-1.0, 1.0, -1.0])  # Q_y(180 deg): the capture pose relative to the target
 
 
 @dataclass
@@ -245,7 +243,7 @@ class SoftCaptureConfig(SoftCaptureSettings):
     @property
     def tumble_rate_limit_rad_s(self) -> float:
         """min(omega_max, v_max / |D_c + D_t|): the paper's applicability limit (Sec. VI-B)."""
-        reach = np.linalg.norm(np.asarray(self.p_TDt_T) - _R_Y_PI @ np.asarray(self.p_CDc_C))
+        reach = np.linalg.norm(capture_reach_T(self.p_CDc_C, self.p_TDt_T))
         return min(self.max_los_rate_rad_s, self.max_speed_m_s / reach)
 
     def symbols(self) -> dict:
@@ -401,7 +399,7 @@ def terminal_targets(
         ``(p*, v*)`` in L [m, m/s] (module docstring for which chaser point v* constrains).
     """
     D_t = np.asarray(config.p_TDt_T, dtype=float)
-    reach_T = D_t - _R_Y_PI @ np.asarray(config.p_CDc_C, dtype=float)  # D_t + D_c (Table I)
+    reach_T = capture_reach_T(config.p_CDc_C, D_t)  # D_t + D_c (Table I)
     w_LT_T = np.asarray(w_IT_T, dtype=float) - R_LT.T @ np.array([0.0, 0.0, n_orbit])
     lever_T = reach_T if config.terminal_velocity_point == "chaser_capture_point" else D_t
     return R_LT @ reach_T, R_LT @ np.cross(w_LT_T, lever_T)  # (13), (14)

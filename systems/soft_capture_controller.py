@@ -108,6 +108,7 @@ from pydrake.math import RotationMatrix
 from pydrake.systems.framework import LeafSystem
 
 from rpod.models.cw import cw_acceleration, cw_state_transition, cw_zoh_input
+from rpod.models.docking import capture_reach_T
 from rpod.models.frames import rotation_from_wxyz
 from rpod.models.rigid_body import angular_acceleration, attitude_pd_torque
 from rpod.models.shapes import (
@@ -132,7 +133,6 @@ MODE_TRACKING, MODE_CAPTURE_HOLD, MODE_FALLBACK = range(3)
 # Log codes of the planner status: "none" (no call yet), the planner's PlanStatus in its fixed
 # order, and "other" (anything else).
 PLANNER_STATUSES = ("none", *(status.value for status in PlanStatus), "other")
-_R_Y_PI = np.diag([-1.0, 1.0, -1.0])
 _logger = logging.getLogger(__name__)
 # Times within this of a knot or a replan instant count as on it (the periodic event times are
 # k * period in floating point, e.g. 10.000000000000002).
@@ -352,7 +352,7 @@ class SoftCaptureController(LeafSystem):
         self._dt = float(self._planning.dt_s)
         self._D_c = np.asarray(self._planning.p_CDc_C, dtype=float)
         self._c_C = self._D_c / np.linalg.norm(self._D_c)
-        self._reach_T = np.asarray(self._planning.p_TDt_T, float) - _R_Y_PI @ self._D_c
+        self._reach_T = capture_reach_T(self._D_c, self._planning.p_TDt_T)
 
         self._sensed_port = declare_sensed_input(self)
 

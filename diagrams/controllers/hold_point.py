@@ -63,8 +63,6 @@ class HoldPointPlugin(ControllerPlugin):
         except ValueError as error:
             field, _, message = str(error).partition(": ")
             raise ScenarioError(f"controller.{field}", message) from None
-        if not scenario.thrusters.enabled:
-            raise ScenarioError("thrusters.enabled", "the !HoldPoint controller needs thrusters")
 
     def add_to_diagram(self, builder, scenario, sensed) -> ControllerWiring:
         config = scenario.controller

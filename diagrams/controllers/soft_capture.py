@@ -278,8 +278,6 @@ class SoftCapturePlugin(ControllerPlugin):
         except ValueError as error:
             field, _, message = str(error).partition(": ")
             raise ScenarioError(f"controller.{field}", message) from None
-        if not scenario.thrusters.enabled:
-            raise ScenarioError("thrusters.enabled", "the !SoftCapture controller needs thrusters")
         if scenario.orbit.gravity == "free_space":
             raise ScenarioError(
                 "orbit.gravity",

@@ -59,6 +59,7 @@ class ConstantAcceleration:
 class ConstantAccelerationPlugin(ControllerPlugin):
     config_type = ConstantAcceleration
     system_name = "constant_acceleration"
+    actuation = Actuation.IDEAL
 
     def validate(self, config, scenario):
         config.validate()
@@ -95,6 +96,7 @@ class FixedLevels:
 class FixedLevelsPlugin(ControllerPlugin):
     config_type = FixedLevels
     system_name = "fixed_levels"
+    actuation = Actuation.THRUSTER_COMMANDS
 
     def add_to_diagram(self, builder, scenario, sensed):
         config = scenario.controller
@@ -106,23 +108,44 @@ class FixedLevelsPlugin(ControllerPlugin):
         )  # fmt: skip
 
 
+@dataclasses.dataclass
+class FixedForces:
+    """Test controller: constant force vectors in C, 3 per thruster (path 2, gimbaled)."""
+
+    forces_C: list[float] = dataclasses.field(default_factory=lambda: [0.0] * 24)
+    control_period_s: float = 0.1
+
+
+class FixedForcesPlugin(FixedLevelsPlugin):
+    config_type = FixedForces
+    system_name = "fixed_forces"
+
+    def add_to_diagram(self, builder, scenario, sensed):
+        system = builder.AddNamedSystem(self.system_name, _Constant(scenario.controller.forces_C))
+        builder.Connect(sensed, system.GetInputPort("sensed"))
+        return ControllerWiring(
+            system, Actuation.THRUSTER_COMMANDS, system.GetOutputPort("command"), 0.1
+        )
+
+
 @pytest.fixture(scope="module", autouse=True)
 def registered():
-    register_controller(ConstantAccelerationPlugin())
-    register_controller(FixedLevelsPlugin())
+    for plugin in (ConstantAccelerationPlugin(), FixedLevelsPlugin(), FixedForcesPlugin()):
+        register_controller(plugin)
     yield
-    assert {"ConstantAcceleration", "FixedLevels"} <= {p.tag for p in controller_plugins()}
+    tags = {p.tag for p in controller_plugins()}
+    assert {"ConstantAcceleration", "FixedLevels", "FixedForces"} <= tags
 
 
-def _run(tmp_path, controller_yaml: str, extra: str = "") -> tuple[int, dict, dict]:
+def _run(tmp_path, controller_yaml: str, thrusters: str = "") -> tuple[int, dict, dict]:
     scenario = tmp_path / "scenario.yaml"
     scenario.write_text(
         "orbit: {gravity: free_space}\n"
         "chaser: {p_LC_L: [0.0, -20.0, 0.0], v_LC_L: [0.0, 0.0, 0.0], mass_kg: 400.0}\n"
         "target: {w_IT_T_deg_s: [0.0, 0.0, 0.0]}\n"
-        f"thrusters: {{isp_s: {ISP_S}}}\n"
+        f"thrusters: {thrusters or f'{{isp_s: {ISP_S}}}'}\n"
         f"controller: {controller_yaml}\n"
-        "duration_s: 20.0\nlog_period_s: 1.0\n" + extra
+        "duration_s: 20.0\nlog_period_s: 1.0\n"
     )
     out = tmp_path / "out"
     code = cli.main(["run", str(scenario), "--out", str(out), "--no-record"])
@@ -173,6 +196,38 @@ def test_per_thruster_levels_controller_flies_through_pwm_and_the_bank(tmp_path)
     # Rocket equation along +y (one Isp, one direction): exact whatever the pulse pattern.
     speed = STANDARD_GRAVITY_M_S2 * ISP_S * math.log(400.0 / (400.0 - propellant))
     np.testing.assert_allclose(log["v_LC_L"][-1], [0.0, speed, 0.0], atol=1e-9)
+
+
+def test_gimbaled_force_vectors_fly_through_the_bank_clipped_to_its_limits(tmp_path):
+    """gimbaled_cuboid_8 (paper 001): thrusters 0 and 1 at half thrust along their nominal
+    directions, thruster 2 commanded at 3x its limit (clipped to it, and reported). Whatever
+    the chaser's rotation, the propellant is sum |f_k| t / (g0 Isp) exactly."""
+    from rpod.models.thrusters import gimbaled_cuboid_8
+
+    layout = gimbaled_cuboid_8(max_thrust_N=10.0, isp_s=ISP_S)
+    forces = np.zeros((8, 3))
+    forces[0] = 5.0 * layout.directions_C[0]
+    forces[1] = 5.0 * layout.directions_C[1]
+    forces[2] = 30.0 * layout.directions_C[2]
+    code, summary, log = _run(
+        tmp_path,
+        f"!FixedForces {{forces_C: {forces.ravel().tolist()}}}",
+        "{layout: gimbaled_cuboid_8, max_thrust_N: 10.0, isp_s: 220.0}",
+    )
+    assert code == 0
+    propellant = (5.0 + 5.0 + 10.0) * 20.0 / (STANDARD_GRAVITY_M_S2 * ISP_S)
+    assert summary["propellant_kg"] == pytest.approx(propellant, rel=1e-9)
+    clipped = log["command_clipped"][-1]
+    assert clipped[2] == 1.0 and clipped[0] == clipped[1] == 0.0
+    np.testing.assert_allclose(log["thruster_force_C"][-1], forces.ravel())
+
+
+def test_a_body_wrench_controller_on_gimbaled_thrusters_is_a_field_error(tmp_path, capsys):
+    scenario = tmp_path / "bad.yaml"
+    scenario.write_text("thrusters: {layout: gimbaled_cuboid_8}\ncontroller: !HoldPoint {}\n")
+    assert cli.main(["run", str(scenario), "--out", str(tmp_path / "out")]) == 2
+    line = capsys.readouterr().err.strip()
+    assert "thrusters.layout: gimbaled_cuboid_8 takes force vectors" in line and "\n" not in line
 
 
 def test_unknown_tag_is_one_line_naming_the_known_ones(tmp_path, capsys):

@@ -54,3 +54,17 @@ def test_corridor_violation_is_the_angle_from_the_axis_minus_the_half_angle(p_DX
 def test_bad_geometry_is_refused(changes):
     with pytest.raises(ValueError):
         _docking(**changes)
+
+
+def test_the_capture_pose_puts_the_capture_points_together():
+    """Paper 000 Table I: D_c = D_t = [0, 0, 2.7] m gives the chaser's centre of mass at
+    [0, 0, 5.4] m in T; for any D_c, D_t the chaser's capture point lands on D_t."""
+    from rpod.models.docking import R_TC_CAPTURE, capture_reach_T
+
+    np.testing.assert_allclose(capture_reach_T([0, 0, 2.7], [0, 0, 2.7]), [0, 0, 5.4])
+    rng = np.random.default_rng(5)
+    for _ in range(5):
+        D_c, D_t = rng.normal(size=(2, 3))
+        p_TC_T = capture_reach_T(D_c, D_t)
+        np.testing.assert_allclose(p_TC_T + R_TC_CAPTURE @ D_c, D_t, atol=1e-15)
+    assert np.allclose(R_TC_CAPTURE @ R_TC_CAPTURE.T, np.eye(3)) and np.linalg.det(R_TC_CAPTURE) > 0
