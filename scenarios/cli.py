@@ -13,6 +13,7 @@ left half-written; `sweep` keeps every finished run and the same command resumes
 
 import argparse
 import logging
+import os
 import pathlib
 import sys
 
@@ -367,6 +368,9 @@ def main(argv=None) -> int:
     except KeyboardInterrupt as interrupt:  # Ctrl-C: 130; SIGTERM (run.Terminated): 143
         print(f"rpod: {getattr(interrupt, 'message', 'interrupted')}", file=sys.stderr)
         return getattr(interrupt, "exit_status", 130)
+    except BrokenPipeError:  # `rpod report ... | head`: the reader left; no traceback
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # nothing more to flush
+        return 0
 
 
 if __name__ == "__main__":

@@ -93,3 +93,20 @@ def test_empty_scenario_file_runs_with_the_defaults(tmp_path):
                        cwd=tmp_path)  # fmt: skip
     assert process.returncode == 0, process.stderr
     assert (tmp_path / "out" / "summary.json").is_file()
+
+
+def test_a_closed_pipe_is_not_a_traceback(tmp_path):
+    """`rpod list | head -0`: the reader is gone before rpod writes; rpod exits quietly."""
+    import subprocess
+    import sys
+
+    process = subprocess.Popen(
+        [sys.executable, "-m", "rpod.scenarios.cli", "list"],
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    process.stdout.close()  # no reader: every write fails with EPIPE
+    _, stderr = process.communicate(timeout=120)
+    assert process.returncode == 0, stderr
+    assert b"Traceback" not in stderr and b"BrokenPipeError" not in stderr
