@@ -140,9 +140,20 @@ class ControllerPlugin:
     def validate(self, config, scenario) -> None:
         """Raises ScenarioError (field relative to the scenario) on a bad config.
 
-        The default calls config.validate(), which raises ValueError('field: message') with
-        the field relative to the controller block.
+        The default calls config.validate() when the config has one, which raises
+        ValueError('field: message') with the field relative to the controller block, and
+        names the field `controller.<field>`. A plug-in that checks more calls this first.
         """
+        from rpod.diagrams.scenario import ScenarioError  # (scenario.py imports this module)
+
+        check = getattr(config, "validate", None)
+        if check is None:
+            return
+        try:
+            check()
+        except ValueError as error:
+            field, _, message = str(error).partition(": ")
+            raise ScenarioError(f"controller.{field}", message) from None
 
     def add_to_diagram(self, builder, scenario, sensed) -> ControllerWiring:
         """Adds the controller's systems; `sensed` is the sensed bundle's output port."""

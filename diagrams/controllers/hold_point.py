@@ -22,7 +22,7 @@ from rpod.diagrams.controller_seam import (
     MissionOutcome,
     register_controller,
 )
-from rpod.diagrams.scenario import ScenarioError, docking_geometry
+from rpod.diagrams.scenario import docking_geometry
 from rpod.models.frames import rotations_from_wxyz
 from rpod.systems.hold_point_controller import HoldPointController, HoldPointControllerConfig
 from rpod.systems.sensed import SENSED_PORT
@@ -56,13 +56,6 @@ class HoldPointPlugin(ControllerPlugin):
 
     config_type = HoldPoint
     system_name = "hold_point_controller"
-
-    def validate(self, config, scenario) -> None:
-        try:
-            config.validate()
-        except ValueError as error:
-            field, _, message = str(error).partition(": ")
-            raise ScenarioError(f"controller.{field}", message) from None
 
     def add_to_diagram(self, builder, scenario, sensed) -> ControllerWiring:
         config = scenario.controller

@@ -273,11 +273,7 @@ class SoftCapturePlugin(ControllerPlugin):
     system_name = "soft_capture_controller"
 
     def validate(self, config, scenario) -> None:
-        try:
-            config.validate()
-        except ValueError as error:
-            field, _, message = str(error).partition(": ")
-            raise ScenarioError(f"controller.{field}", message) from None
+        super().validate(config, scenario)  # the config's own checks
         if scenario.orbit.gravity == "free_space":
             raise ScenarioError(
                 "orbit.gravity",

@@ -61,9 +61,6 @@ class ConstantAccelerationPlugin(ControllerPlugin):
     system_name = "constant_acceleration"
     actuation = Actuation.IDEAL
 
-    def validate(self, config, scenario):
-        config.validate()
-
     def add_to_diagram(self, builder, scenario, sensed):
         config = scenario.controller
         system = builder.AddNamedSystem(self.system_name, _Constant(config.a_L))
