@@ -258,9 +258,7 @@ def test_rotations_from_wxyz_matches_drake_rotation_matrix():
 
     rng = np.random.default_rng(7)
     q = rng.normal(size=(50, 4)) * rng.uniform(0.5, 2.0, size=(50, 1))
-    expected = np.array(
-        [RotationMatrix(Quaternion(qk / np.linalg.norm(qk))).matrix() for qk in q]
-    )
+    expected = np.array([RotationMatrix(Quaternion(qk / np.linalg.norm(qk))).matrix() for qk in q])
     np.testing.assert_allclose(rotations_from_wxyz(q), expected, atol=1e-14)
     stacked = rotations_from_wxyz(q[:10].reshape(2, 5, 4))
     np.testing.assert_allclose(stacked.reshape(10, 3, 3), expected[:10], atol=1e-14)

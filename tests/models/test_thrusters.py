@@ -109,8 +109,13 @@ def _strictly_positive_null_margin(B):
     A_ub = np.hstack([-np.eye(n), np.ones((n, 1))])  # t - u_k <= 0
     A_eq = np.hstack([B, np.zeros((B.shape[0], 1))])
     res = scipy.optimize.linprog(
-        c, A_ub=A_ub, b_ub=np.zeros(n), A_eq=A_eq, b_eq=np.zeros(B.shape[0]),
-        bounds=[(0, 1)] * n + [(None, 1)], method="highs",
+        c,
+        A_ub=A_ub,
+        b_ub=np.zeros(n),
+        A_eq=A_eq,
+        b_eq=np.zeros(B.shape[0]),
+        bounds=[(0, 1)] * n + [(None, 1)],
+        method="highs",
     )
     assert res.status == 0
     return -res.fun

@@ -1,0 +1,267 @@
+"""Paper 004's MPC safety filter (eq. 11) as one persistent OSQP problem.
+
+Owns: `LosMpcSettings` (horizon, weights, input bound, solver tolerances), `LosCorridorMpc`
+(the QP, built once) and `MpcResult`. Does not own: the prediction model A_d, B_d (given per
+step: CW's exact STM and ZOH input matrix, rpod.models.cw, or an online linearisation), the
+corridor (rpod.models.los_corridor), the reference or what a controller does when the QP fails.
+
+The QP (eq. 11), over z = [x_0, ..., x_N, u_0, ..., u_{N-1}] (N = N_p):
+
+    min  sum_{j<N} |x_j - x_ref|_Q^2 + |x_N - x_ref|_{Q_N}^2
+         + sum_{j<N} |u_j|_{R_u}^2 + |u_j - u_{j-1}|_{R_du}^2        (11a; u_{-1}: last applied)
+    s.t. x_0 = x_k                                                    (11c)
+         x_{j+1} = A_d x_j + B_d u_j,  j < N                          (11b)
+         A_c [x_j]_{1:3} <= b_c,  j = 0..N                            (11d)
+         -a_max <= u_j <= a_max                                       (11e)
+
+written as OSQP's min 1/2 z'Pz + q'z, l <= A z <= u. The input-rate term is u' D' R D u -
+2 e' R D u + const with D the first difference (its first row the identity) and e = [u_{-1}, 0,
+...], so P is constant and only q depends on x_ref and u_{-1}.
+
+Persistence (what the paper's public code does not do: it rebuilds OSQP every step, so its warm
+start never takes effect). The problem is set up once. The constraint matrix's sparsity is
+fixed up front: every entry of every A_d and B_d block is stored, zeros included, so a new
+A_d, B_d only rewrites values (`update(Ax=...)`), never the pattern, and OSQP keeps its
+factorisation's symbolic part. Each step then updates q, l, u and those values, and OSQP starts
+from the previous primal and dual solution (its warm start, on by default).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import time
+
+import numpy as np
+import osqp
+import scipy.sparse as sp
+
+
+class MpcStatus(str, enum.Enum):
+    """What came of one solve, in OSQP's terms."""
+
+    SOLVED = "solved"
+    SOLVED_INACCURATE = "solved_inaccurate"
+    PRIMAL_INFEASIBLE = "primal_infeasible"
+    DUAL_INFEASIBLE = "dual_infeasible"
+    MAX_ITERATIONS = "max_iterations"
+    OTHER = "other"
+
+
+_OSQP_STATUS = {
+    "solved": MpcStatus.SOLVED,
+    "solved inaccurate": MpcStatus.SOLVED_INACCURATE,
+    "primal infeasible": MpcStatus.PRIMAL_INFEASIBLE,
+    "primal infeasible inaccurate": MpcStatus.PRIMAL_INFEASIBLE,
+    "dual infeasible": MpcStatus.DUAL_INFEASIBLE,
+    "dual infeasible inaccurate": MpcStatus.DUAL_INFEASIBLE,
+    "maximum iterations reached": MpcStatus.MAX_ITERATIONS,
+}
+
+
+@dataclasses.dataclass
+class LosMpcSettings:
+    """Paper 004 Sec. 6's MPC (defaults: the single-scenario configuration).
+
+    Args:
+        horizon: N_p (40 single scenario, 20 Monte Carlo).
+        Q_diag: tracking weight Q (diag(15, 30, 15, 1, 1, 1)).
+        terminal_factor: Q_N = terminal_factor Q (30).
+        R_u_diag: input weight R_u (1e-2 I).
+        R_du_diag: input-rate weight R_du (1e4 I; Monte Carlo: diag(1e5, 1e4, 1e5)).
+        a_max_m_s2: the box bound on each input component (11e) [m/s^2].
+        eps_abs: OSQP's absolute tolerance.
+        eps_rel: OSQP's relative tolerance.
+        max_iter: OSQP's iteration limit.
+    """
+
+    horizon: int = 40
+    Q_diag: list[float] = dataclasses.field(default_factory=lambda: [15, 30, 15, 1, 1, 1])
+    terminal_factor: float = 30.0
+    R_u_diag: list[float] = dataclasses.field(default_factory=lambda: [1e-2] * 3)
+    R_du_diag: list[float] = dataclasses.field(default_factory=lambda: [1e4] * 3)
+    a_max_m_s2: float = 0.10
+    eps_abs: float = 1e-5
+    eps_rel: float = 1e-5
+    max_iter: int = 4000
+
+    def validate(self) -> None:
+        """Raises ValueError('field: message') naming the first bad field."""
+        if int(self.horizon) != self.horizon or self.horizon < 1:
+            raise ValueError(f"horizon: must be a positive integer, got {self.horizon}")
+        for name, size in (("Q_diag", 6), ("R_u_diag", 3), ("R_du_diag", 3)):
+            values = np.asarray(getattr(self, name), dtype=float)
+            if values.shape != (size,) or not np.all(np.isfinite(values)) or np.any(values < 0):
+                raise ValueError(f"{name}: expected {size} finite non-negative numbers")
+        if not np.all(np.asarray(self.R_u_diag) + np.asarray(self.R_du_diag) > 0):
+            raise ValueError("R_u_diag: R_u + R_du must be positive definite")
+        for name in ("terminal_factor", "a_max_m_s2", "eps_abs", "eps_rel"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name}: must be positive, got {getattr(self, name)}")
+
+
+@dataclasses.dataclass
+class MpcResult:
+    """One solve.
+
+    Attributes:
+        status: OSQP's verdict as an MpcStatus.
+        u0: the first input (3) to apply, or None unless solved (accurately or not).
+        u: the inputs (N, 3), x: the predicted states (N + 1, 6) (None unless solved).
+        iterations: OSQP's ADMM iterations.
+        solve_time_s: wall time of the update and solve [s].
+    """
+
+    status: MpcStatus
+    u0: np.ndarray | None
+    u: np.ndarray | None
+    x: np.ndarray | None
+    iterations: int
+    solve_time_s: float
+
+    @property
+    def solved(self) -> bool:
+        return self.status in (MpcStatus.SOLVED, MpcStatus.SOLVED_INACCURATE)
+
+
+class LosCorridorMpc:
+    """The persistent QP of eq. 11 (module docstring)."""
+
+    def __init__(self, settings: LosMpcSettings, A_c: np.ndarray, b_c: np.ndarray):
+        """Builds and sets up the QP once (A_d = I, B_d = 0 until the first `solve`).
+
+        Args:
+            settings: the MPC's settings (validated here).
+            A_c, b_c: the corridor's half-spaces on the position, A_c p <= b_c (eq. 9).
+        """
+        settings.validate()
+        self.settings = settings
+        N = self.N = int(settings.horizon)
+        self._A_c = np.asarray(A_c, dtype=float)
+        self._b_c = np.asarray(b_c, dtype=float)
+        nx, nu, nc = 6, 3, len(self._b_c)
+        self._nz = nx * (N + 1) + nu * N
+        self._u_offset = nx * (N + 1)
+
+        # Cost: P constant (x_ref and u_{-1} enter q only).
+        Q = np.diag(np.asarray(settings.Q_diag, dtype=float))
+        R_u = np.diag(np.asarray(settings.R_u_diag, dtype=float))
+        self._R_du = np.diag(np.asarray(settings.R_du_diag, dtype=float))
+        P_x = sp.block_diag([Q] * N + [settings.terminal_factor * Q])
+        D = sp.eye(N) - sp.eye(N, k=-1)  # first difference; row 0 is u_0 (minus u_{-1} in q)
+        R_du_blk = sp.kron(sp.eye(N), self._R_du)
+        D_blk = sp.kron(D, sp.eye(nu))
+        P_u = sp.kron(sp.eye(N), R_u) + D_blk.T @ R_du_blk @ D_blk
+        self._P = sp.triu(2.0 * sp.block_diag([P_x, P_u]), format="csc")
+        self._Q_weights = [Q] * N + [settings.terminal_factor * Q]
+
+        # Constraints: rows [x_0 = x_k (6); dynamics (6N); corridor (nc (N+1)); inputs (3N)].
+        # Every A_d and B_d entry is an explicit entry (ids >= 0 tag them for updates).
+        rows, cols, values, ids = [], [], [], []
+
+        def add(r, c, v, tag=-1):
+            rows.append(r)
+            cols.append(c)
+            values.append(v)
+            ids.append(tag)
+
+        for i in range(nx):
+            add(i, i, 1.0)
+        self._dynamics_slots = []  # (j, "A"|"B", row, col) for tagged entries, in tag order
+        for j in range(N):
+            r0 = nx + nx * j
+            for i in range(nx):
+                add(r0 + i, nx * (j + 1) + i, 1.0)  # x_{j+1}
+            for i in range(nx):
+                for k in range(nx):  # -A_d x_j
+                    add(r0 + i, nx * j + k, 0.0, len(self._dynamics_slots))
+                    self._dynamics_slots.append(("A", i, k))
+                for k in range(nu):  # -B_d u_j
+                    add(r0 + i, self._u_offset + nu * j + k, 0.0, len(self._dynamics_slots))
+                    self._dynamics_slots.append(("B", i, k))
+        r_corr = nx + nx * N
+        for j in range(N + 1):
+            for i in range(nc):
+                for k in range(3):
+                    if self._A_c[i, k] != 0.0:
+                        add(r_corr + nc * j + i, nx * j + k, self._A_c[i, k])
+        r_u = r_corr + nc * (N + 1)
+        for j in range(N):
+            for k in range(nu):
+                add(r_u + nu * j + k, self._u_offset + nu * j + k, 1.0)
+        m = r_u + nu * N
+        # CSC with explicit zeros kept: build from ids, read the slot order, then the values.
+        tags = sp.csc_matrix(
+            (np.arange(len(values), dtype=float) + 1.0, (rows, cols)), shape=(m, self._nz)
+        )
+        order = tags.data.astype(int) - 1  # csc slot -> entry
+        self._A = sp.csc_matrix(
+            (np.asarray(values)[order], tags.indices.copy(), tags.indptr.copy()),
+            shape=(m, self._nz),
+        )
+        entry_ids = np.asarray(ids)[order]
+        self._dyn_csc_slots = np.flatnonzero(entry_ids >= 0)  # csc slots of A_d, B_d entries
+        self._dyn_tags = entry_ids[self._dyn_csc_slots]  # their tags (slot order)
+        self._l = np.concatenate([np.zeros(nx * (N + 1)), np.full(nc * (N + 1), -np.inf),
+                                  np.full(nu * N, -settings.a_max_m_s2)])  # fmt: skip
+        self._u = np.concatenate([np.zeros(nx * (N + 1)), np.tile(self._b_c, N + 1),
+                                  np.full(nu * N, settings.a_max_m_s2)])  # fmt: skip
+        self._solver = osqp.OSQP()
+        self._solver.setup(
+            P=self._P,
+            q=np.zeros(self._nz),
+            A=self._A,
+            l=self._l,
+            u=self._u,
+            eps_abs=settings.eps_abs,
+            eps_rel=settings.eps_rel,
+            max_iter=settings.max_iter,
+            warm_starting=True,
+            polishing=False,
+            verbose=False,
+        )
+
+    def qp(self, x_k, x_ref, u_prev, A_d, B_d):
+        """(P, q, A, l, u) of the QP at these data (P upper triangular): for a reference solve."""
+        A = self._A.copy()
+        A.data[self._dyn_csc_slots] = self._dynamics_values(A_d, B_d)
+        l, u = self._l.copy(), self._u.copy()
+        l[:6] = u[:6] = x_k
+        return self._P, self._linear_cost(x_ref, u_prev), A, l, u
+
+    def _dynamics_values(self, A_d, B_d) -> np.ndarray:
+        A_d, B_d = np.asarray(A_d, dtype=float), np.asarray(B_d, dtype=float)
+        per_tag = np.array(
+            [-(A_d if kind == "A" else B_d)[i, k] for kind, i, k in self._dynamics_slots]
+        )
+        return per_tag[self._dyn_tags]
+
+    def _linear_cost(self, x_ref, u_prev) -> np.ndarray:
+        q = np.zeros(self._nz)
+        x_ref = np.asarray(x_ref, dtype=float)
+        for j, Q in enumerate(self._Q_weights):
+            q[6 * j : 6 * j + 6] = -2.0 * Q @ x_ref
+        q[self._u_offset : self._u_offset + 3] = -2.0 * self._R_du @ np.asarray(u_prev, float)
+        return q
+
+    def solve(self, x_k, x_ref, u_prev, A_d, B_d) -> MpcResult:
+        """One receding-horizon step: updates the data, solves warm, returns u_0 (eq. 11)."""
+        start = time.perf_counter()
+        l, u = self._l, self._u
+        l[:6] = u[:6] = np.asarray(x_k, dtype=float)
+        self._solver.update(
+            q=self._linear_cost(x_ref, u_prev),
+            l=l,
+            u=u,
+            Ax=self._dynamics_values(A_d, B_d),
+            Ax_idx=self._dyn_csc_slots,
+        )
+        result = self._solver.solve(raise_error=False)  # a failure is a status, not a raise
+        status = _OSQP_STATUS.get(result.info.status, MpcStatus.OTHER)
+        elapsed = time.perf_counter() - start
+        if status not in (MpcStatus.SOLVED, MpcStatus.SOLVED_INACCURATE):
+            return MpcResult(status, None, None, None, int(result.info.iter), elapsed)
+        z = result.x
+        x = z[: self._u_offset].reshape(self.N + 1, 6)
+        u_all = z[self._u_offset :].reshape(self.N, 3)
+        return MpcResult(status, u_all[0].copy(), u_all, x, int(result.info.iter), elapsed)

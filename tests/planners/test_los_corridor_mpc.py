@@ -1,0 +1,101 @@
+"""Paper 004's MPC (eq. 11) through one persistent OSQP problem: the same QP solved by Clarabel
+(through Drake) agrees to OSQP's tolerance, before and after the data are updated in place; an
+independent check evaluates every constraint on the solution; an infeasible QP is a status."""
+
+import numpy as np
+import pytest
+from pydrake.solvers import ClarabelSolver, MathematicalProgram
+
+from rpod.models.cw import cw_state_transition, cw_zoh_input
+from rpod.models.los_corridor import LosCorridor
+from rpod.planners.los_corridor_mpc import LosCorridorMpc, LosMpcSettings, MpcStatus
+
+N_ORBIT = 1.131e-3  # paper 004 Table 1: 500 km
+DT = 1.0
+CORRIDOR = LosCorridor()
+TIGHT = {"eps_abs": 1e-9, "eps_rel": 1e-9, "max_iter": 200000}
+
+
+def _model(dt=DT):
+    return cw_state_transition(N_ORBIT, dt), cw_zoh_input(N_ORBIT, dt)
+
+
+def _clarabel(P, q, A, l, u) -> tuple[np.ndarray, float]:
+    """The same QP by Clarabel: (z*, objective)."""
+    prog = MathematicalProgram()
+    z = prog.NewContinuousVariables(P.shape[0])
+    P_full = (P + P.T).toarray() - np.diag(P.diagonal())  # P is upper triangular
+    prog.AddQuadraticCost(P_full, q, z, is_convex=True)
+    A = A.toarray()
+    finite_l, finite_u = np.where(np.isfinite(l), l, -1e30), np.where(np.isfinite(u), u, 1e30)
+    prog.AddLinearConstraint(A, finite_l, finite_u, z)
+    result = ClarabelSolver().Solve(prog)
+    assert result.is_success()
+    return result.GetSolution(z), result.get_optimal_cost()
+
+
+def _check_solution(result, x_k, A_d, B_d, a_max, tolerance=1e-6):
+    """Every constraint of eq. 11 on the returned trajectory."""
+    x, u = result.x, result.u
+    np.testing.assert_allclose(x[0], x_k, atol=tolerance)  # (11c)
+    residual = x[1:] - (x[:-1] @ A_d.T + u @ B_d.T)  # (11b)
+    assert np.max(np.abs(residual)) < tolerance
+    assert np.all(CORRIDOR.slack(x[:, :3]) >= -tolerance)  # (11d), every predicted step
+    assert np.all(np.abs(u) <= a_max + tolerance)  # (11e)
+
+
+@pytest.mark.parametrize("horizon", [20, 40])
+def test_osqp_persistent_solve_equals_clarabel_before_and_after_an_update(horizon):
+    settings = LosMpcSettings(horizon=horizon, **TIGHT)
+    mpc = LosCorridorMpc(settings, CORRIDOR.A_c, CORRIDOR.b_c)
+    A_d, B_d = _model()
+    x_ref = np.array([0.0, 10.0, 0.0, 0.0, 0.0, 0.0])  # a hold point 10 m up the axis
+    cases = [
+        (np.array([3.0, 25.0, -2.0, 0.05, -0.2, 0.01]), np.zeros(3), A_d, B_d),
+        # An update in place: another start, another last input, another A_d, B_d (dt 1.2 s).
+        (np.array([-4.0, 30.0, 5.0, 0.0, -0.1, -0.05]), np.array([0.01, -0.02, 0.0]), *_model(1.2)),
+    ]
+    for x_k, u_prev, A, B in cases:
+        result = mpc.solve(x_k, x_ref, u_prev, A, B)
+        assert result.status is MpcStatus.SOLVED
+        _check_solution(result, x_k, A, B, settings.a_max_m_s2)
+        z_ref, _ = _clarabel(*mpc.qp(x_k, x_ref, u_prev, A, B))
+        u_ref = z_ref[6 * (horizon + 1) :].reshape(horizon, 3)
+        # OSQP at eps 1e-9 against an interior-point solution: 1e-6 m/s^2 on inputs of 1e-1.
+        np.testing.assert_allclose(result.u0, u_ref[0], atol=1e-6)
+        np.testing.assert_allclose(result.u, u_ref, atol=1e-5)
+
+
+def test_the_input_bound_and_the_corridor_are_active_when_the_reference_pulls_out():
+    """A reference outside the corridor: the solution rides the corridor, inputs bounded."""
+    settings = LosMpcSettings(horizon=20, a_max_m_s2=0.02, **TIGHT)
+    mpc = LosCorridorMpc(settings, CORRIDOR.A_c, CORRIDOR.b_c)
+    A_d, B_d = _model()
+    x_k = np.array([10.0, 20.0, 0.0, 0.0, 0.0, 0.0])  # 26.6 deg off the axis, toward +x
+    result = mpc.solve(x_k, np.array([30.0, 20.0, 0.0, 0, 0, 0]), np.zeros(3), A_d, B_d)
+    assert result.status is MpcStatus.SOLVED
+    _check_solution(result, x_k, A_d, B_d, 0.02)
+    assert np.max(np.abs(result.u)) == pytest.approx(0.02, abs=1e-6)  # saturated
+    assert np.min(CORRIDOR.slack(result.x[:, :3])) < 1e-5  # on a face
+
+
+def test_a_start_outside_the_corridor_is_an_infeasible_status_not_an_exception():
+    mpc = LosCorridorMpc(LosMpcSettings(horizon=20), CORRIDOR.A_c, CORRIDOR.b_c)
+    A_d, B_d = _model()
+    outside = np.array([0.0, -5.0, 0.0, 0.0, 0.0, 0.0])  # behind the target: x_0 violates 11d
+    result = mpc.solve(outside, np.zeros(6), np.zeros(3), A_d, B_d)
+    assert result.status is MpcStatus.PRIMAL_INFEASIBLE and not result.solved
+    assert result.u0 is None
+    # The same solver solves the next, feasible step (the persistent problem is not broken).
+    inside = np.array([0.0, 15.0, 0.0, 0.0, 0.0, 0.0])
+    assert mpc.solve(inside, inside, np.zeros(3), A_d, B_d).status is MpcStatus.SOLVED
+
+
+def test_bad_settings_name_the_field():
+    for bad, field in (
+        ({"horizon": 0}, "horizon"),
+        ({"Q_diag": [1, 2]}, "Q_diag"),
+        ({"a_max_m_s2": 0.0}, "a_max_m_s2"),
+    ):
+        with pytest.raises(ValueError, match=field):
+            LosCorridorMpc(LosMpcSettings(**bad), CORRIDOR.A_c, CORRIDOR.b_c)
