@@ -47,9 +47,7 @@ from rpod.models.frames import quaternion_wxyz, rotation_from_wxyz
 from rpod.models.thrusters import ThrusterLayout
 from rpod.systems.allocator import WrenchAllocator
 from rpod.systems.ideal_actuator import IdealActuator
-from rpod.systems.orbital_dynamics import OrbitalDynamics
 from rpod.systems.pwm import PwmModulator
-from rpod.systems.rigid_body_attitude import RigidBodyAttitude
 from rpod.systems.safety_monitor import SafetyMonitor
 from rpod.systems.sensed import SENSED_FIELDS, SENSED_PORT
 from rpod.systems.thruster_bank import ThrusterBank
@@ -60,12 +58,12 @@ from rpod.systems.truth import Truth, initial_orbit_state, lvlh_of
 class DiagramHandles:
     """The named systems and loggers of a built diagram (None where a scenario has none)."""
 
-    orbital: OrbitalDynamics
-    target_attitude: RigidBodyAttitude
-    chaser_attitude: RigidBodyAttitude
+    orbital: Truth  # the one truth system, under each of the roles it took over
+    target_attitude: Truth
+    chaser_attitude: Truth
     monitor: SafetyMonitor
     controller: object | None  # the controller plug-in's system (None: coasting)
-    bank: ThrusterBank | None
+    bank: Truth | ThrusterBank | None  # the truth (fixed bank), a ThrusterBank (gimbaled), None
     loggers: dict  # log key -> VectorLogSink
     layout: ThrusterLayout | None
     scene: object | None
