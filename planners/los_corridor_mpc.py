@@ -21,9 +21,11 @@ written as OSQP's min 1/2 z'Pz + q'z, l <= A z <= u. The input-rate term is u' D
 Persistence (what the paper's public code does not do: it rebuilds OSQP every step, so its warm
 start never takes effect). The problem is set up once. The constraint matrix's sparsity is
 fixed up front: every entry of every A_d and B_d block is stored, zeros included, so a new
-A_d, B_d only rewrites values (`update(Ax=...)`), never the pattern, and OSQP keeps its
-factorisation's symbolic part. Each step then updates q, l, u and those values, and OSQP starts
-from the previous primal and dual solution (its warm start, on by default).
+A_d, B_d only rewrites values (`update(Ax=...)`, and only when they change), never the pattern,
+and OSQP keeps its factorisation's symbolic part. Each step then updates q, l, u, and OSQP starts
+from the previous primal and dual solution shifted one step along the horizon (the receding
+horizon's own guess; `shift_warm_start`), which cut the p99 per step by ~20% against OSQP's
+unshifted warm start (benchmarks/results/los_corridor_mpc.md).
 """
 
 from __future__ import annotations
@@ -73,6 +75,9 @@ class LosMpcSettings:
         eps_abs: OSQP's absolute tolerance.
         eps_rel: OSQP's relative tolerance.
         max_iter: OSQP's iteration limit.
+        shift_warm_start: start each solve from the previous solution shifted one step (the
+            receding horizon's own guess: x_j <- x_{j+1}, u_j <- u_{j+1}, and the duals of
+            each block likewise, the last repeated) instead of OSQP's unshifted previous one.
     """
 
     horizon: int = 40
@@ -84,6 +89,7 @@ class LosMpcSettings:
     eps_abs: float = 1e-5
     eps_rel: float = 1e-5
     max_iter: int = 4000
+    shift_warm_start: bool = True
 
     def validate(self) -> None:
         """Raises ValueError('field: message') naming the first bad field."""
@@ -208,6 +214,8 @@ class LosCorridorMpc:
         )
         self._slot_source = source[entry_ids[self._dyn_csc_slots]]
         self._last_dynamics = None  # (A_d, B_d) last written into the solver
+        self._last_solution = None  # (x, y) of the last successful solve, for the shift
+        self._nc = nc
         self._l = np.concatenate([np.zeros(nx * (N + 1)), np.full(nc * (N + 1), -np.inf),
                                   np.full(nu * N, -settings.a_max_m_s2)])  # fmt: skip
         self._u = np.concatenate([np.zeros(nx * (N + 1)), np.tile(self._b_c, N + 1),
@@ -249,6 +257,27 @@ class LosCorridorMpc:
         q[self._u_offset : self._u_offset + 3] = -2.0 * self._R_du @ np.asarray(u_prev, float)
         return q
 
+    @staticmethod
+    def _shift(vector: np.ndarray, start: int, size: int, count: int) -> None:
+        """Moves `count` blocks of `size` at `start` one block earlier, the last repeated."""
+        blocks = vector[start : start + size * count].reshape(count, size)
+        blocks[:-1] = blocks[1:].copy()
+
+    def _shifted_primal(self) -> np.ndarray:
+        z = self._last_solution[0].copy()
+        self._shift(z, 0, 6, self.N + 1)
+        self._shift(z, self._u_offset, 3, self.N)
+        return z
+
+    def _shifted_dual(self) -> np.ndarray:
+        """Rows: x_0 (6), dynamics (6 N), corridor (nc (N + 1)), inputs (3 N)."""
+        y = self._last_solution[1].copy()
+        N, nc = self.N, self._nc
+        self._shift(y, 6, 6, N)
+        self._shift(y, 6 + 6 * N, nc, N + 1)
+        self._shift(y, 6 + 6 * N + nc * (N + 1), 3, N)
+        return y
+
     def solve(self, x_k, x_ref, u_prev, A_d, B_d) -> MpcResult:
         """One receding-horizon step: updates the data, solves warm, returns u_0 (eq. 11)."""
         start = time.perf_counter()
@@ -261,12 +290,15 @@ class LosCorridorMpc:
             self._solver.update(Ax=self._dynamics_values(A_d, B_d), Ax_idx=self._dyn_csc_slots)
             self._last_dynamics = (A_d.copy(), B_d.copy())
         self._solver.update(q=self._linear_cost(x_ref, u_prev), l=l, u=u)
+        if self.settings.shift_warm_start and self._last_solution is not None:
+            self._solver.warm_start(x=self._shifted_primal(), y=self._shifted_dual())
         result = self._solver.solve(raise_error=False)  # a failure is a status, not a raise
         status = _OSQP_STATUS.get(result.info.status, MpcStatus.OTHER)
         elapsed = time.perf_counter() - start
         if status not in (MpcStatus.SOLVED, MpcStatus.SOLVED_INACCURATE):
             return MpcResult(status, None, None, None, int(result.info.iter), elapsed)
         z = result.x
+        self._last_solution = (z.copy(), result.y.copy())
         x = z[: self._u_offset].reshape(self.N + 1, 6)
         u_all = z[self._u_offset :].reshape(self.N, 3)
         return MpcResult(status, u_all[0].copy(), u_all, x, int(result.info.iter), elapsed)
