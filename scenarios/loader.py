@@ -5,10 +5,12 @@ schema check that names the file and the dotted field of any unknown key or wron
 `ScenarioFileError` the command line turns into exit status 2.
 Does not own: the schema itself or its semantic checks (rpod.diagrams.scenario).
 
-The YAML is parsed twice on purpose: once with PyYAML into plain data, to say *which* field is
-wrong (pydrake's loader reports unknown keys but not where a type is wrong), and once with
-`pydrake.common.yaml.yaml_load_typed`, which builds the dataclasses the way Drake's own
-`*Config` types are built.
+The YAML is read once, by rpod.scenarios.yaml_reader (YAML 1.2 numbers, no duplicate keys,
+bounded depth and size, tags kept), into plain data that is checked against the schema here, to
+say *which* field is wrong (pydrake's loader reports unknown keys but not where a type is
+wrong), including inside a tagged controller block. The checked data, dumped back with its
+tags, is what `pydrake.common.yaml.yaml_load_typed` then builds the dataclasses from, the way
+Drake's own `*Config` types are built: one YAML dialect decides, not two.
 """
 
 import dataclasses
