@@ -28,17 +28,16 @@ import argparse
 import contextlib
 import dataclasses
 import functools
-import importlib.metadata
 import logging
 import math
 import os
 import pathlib
-import platform
 import sys
 import time
 from collections import defaultdict
 
 import numpy as np
+from machine import machine_line  # benchmarks/machine.py, beside this script
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 
 import rpod.diagrams.builder as builder_module
@@ -406,23 +405,6 @@ def derivative_costs(scenario) -> list[tuple]:
 
 
 # ---- Report. ----
-
-
-def machine_line() -> str:
-    """Architecture, CPU model, cores, Python and Drake versions."""
-    cpu = platform.processor() or platform.machine()
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    cpu = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
-    return (
-        f"{platform.machine()}, {cpu}, {os.cpu_count()} cores, Python "
-        f"{platform.python_version()}, drake {importlib.metadata.version('drake')}"
-    )
 
 
 def _rate_row(name, summary, reference_rtf) -> str:

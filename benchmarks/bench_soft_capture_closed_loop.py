@@ -35,14 +35,14 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import importlib.metadata
 import logging
 import os
 import pathlib
-import platform
 import statistics
 import sys
 import time
+
+from machine import machine_line  # benchmarks/machine.py, beside this script
 
 from rpod.diagrams.simulate import simulate
 from rpod.scenarios.campaign import apply_overrides, load_campaign, plan_runs
@@ -164,22 +164,6 @@ def row_figures(soft: list[Measure], hold: list[Measure]) -> dict:
         "capture": all(m.capture for m in soft),
         "initial_N": soft[0].initial_N,
     }
-
-
-def machine_line() -> str:
-    cpu = platform.processor() or platform.machine()
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    cpu = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
-    return (
-        f"{platform.machine()}, {cpu}, {os.cpu_count()} cores, Python "
-        f"{platform.python_version()}, drake {importlib.metadata.version('drake')}"
-    )
 
 
 def report(args, pairs, soft, hold, load_start, load_end, elapsed) -> str:

@@ -18,7 +18,8 @@ acceleration in L is paper 004's |a_i| <= a_max.
 """
 
 import numpy as np
-from pydrake.systems.framework import LeafSystem
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import LeafSystem, ValueProducer
 
 from rpod.models.frames import rotation_from_wxyz
 from rpod.models.thrusters import STANDARD_GRAVITY_M_S2
@@ -65,12 +66,28 @@ class IdealActuator(LeafSystem):
         self._command_port = self.DeclareVectorInputPort("command", 3)
         self._sensed_port = declare_sensed_input(self)
         self._mass_port = self.DeclareVectorInputPort("chaser_mass", 1)
-        self.DeclareVectorOutputPort("body_wrench", 6, self._calc_wrench)
-        self.DeclareVectorOutputPort("propellant_mass_flow", 1, self._calc_flow)
-        self.DeclareVectorOutputPort("command_clipped", 1, self._calc_clipped)
+        # One cache entry, [f_C (3), clipped (1)], shared by the three outputs: the truth reads
+        # the wrench and the flow at every integrator stage.
+        inputs = {
+            self.input_port_ticket(port.get_index())
+            for port in (self._command_port, self._sensed_port, self._mass_port)
+        }
+        self._force_entry = self.DeclareCacheEntry(
+            "bounded force in C",
+            ValueProducer(allocate=lambda: AbstractValue.Make(np.zeros(4)), calc=self._calc_force),
+            prerequisites_of_calc=inputs,
+        )
+        uses = {self._force_entry.ticket()}
+        self.DeclareVectorOutputPort("body_wrench", 6, self._calc_wrench, uses)
+        self.DeclareVectorOutputPort("propellant_mass_flow", 1, self._calc_flow, uses)
+        self.DeclareVectorOutputPort("command_clipped", 1, self._calc_clipped, uses)
+
+    def _calc_force(self, context, value) -> None:
+        f_C, clipped = self.force_C(context)
+        value.get_mutable_value()[:] = [*f_C, 1.0 if clipped else 0.0]
 
     def force_C(self, context) -> tuple[np.ndarray, bool]:
-        """(f_C, clipped) at this context."""
+        """(f_C, clipped) at this context, computed (the outputs read the cached one)."""
         command, clipped = bound_command(self._command_port.Eval(context), self._bound, self._limit)
         if self._quantity == "acceleration":
             command = self._mass_port.Eval(context)[0] * command
@@ -81,10 +98,11 @@ class IdealActuator(LeafSystem):
         return command, clipped
 
     def _calc_wrench(self, context, output):
-        output.SetFromVector(np.concatenate([np.zeros(3), self.force_C(context)[0]]))
+        output.SetFromVector(np.concatenate([np.zeros(3), self._force_entry.Eval(context)[:3]]))
 
     def _calc_flow(self, context, output):
-        output.SetAtIndex(0, float(np.linalg.norm(self.force_C(context)[0])) / self._exhaust_speed)
+        f_C = self._force_entry.Eval(context)[:3]
+        output.SetAtIndex(0, float(np.linalg.norm(f_C)) / self._exhaust_speed)
 
     def _calc_clipped(self, context, output):
-        output.SetAtIndex(0, 1.0 if self.force_C(context)[1] else 0.0)
+        output.SetAtIndex(0, self._force_entry.Eval(context)[3])

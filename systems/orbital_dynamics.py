@@ -69,6 +69,27 @@ class OrbitConfig:
     gravity: str = "two_body_j2"
 
 
+def initial_orbit_state(orbit: OrbitConfig) -> tuple[np.ndarray, np.ndarray]:
+    """(p_IT_I, v_IT_I) at t = 0: the circular orbit of `orbit`, or rest at the origin in free
+    space."""
+    if orbit.gravity == "free_space":
+        return np.zeros(3), np.zeros(3)
+    return circular_orbit_state(
+        orbit.altitude_m,
+        math.radians(orbit.inclination_deg),
+        math.radians(orbit.raan_deg),
+        math.radians(orbit.arg_latitude_deg),
+    )
+
+
+def lvlh_of(p_IT_I: np.ndarray, v_IT_I: np.ndarray, gravity: str) -> tuple[np.ndarray, np.ndarray]:
+    """(R_IL, w_IL_L) of the target's LVLH frame; identity and zero in free space."""
+    if gravity == "free_space":
+        return np.eye(3), np.zeros(3)
+    a_IT_I = gravity_acceleration(p_IT_I, gravity)
+    return lvlh_rotation(p_IT_I, v_IT_I), lvlh_angular_velocity(p_IT_I, v_IT_I, a_IT_I)
+
+
 FORCE_FRAMES = ("C", "L", "I")
 
 
@@ -104,15 +125,7 @@ class OrbitalDynamics(LeafSystem):
             raise ValueError(f"force_frame must be one of {FORCE_FRAMES}, got '{force_frame}'")
         self._gravity = orbit.gravity
         self._force_frame = force_frame
-        if orbit.gravity == "free_space":
-            p_IT_I, v_IT_I = np.zeros(3), np.zeros(3)
-        else:
-            p_IT_I, v_IT_I = circular_orbit_state(
-                orbit.altitude_m,
-                math.radians(orbit.inclination_deg),
-                math.radians(orbit.raan_deg),
-                math.radians(orbit.arg_latitude_deg),
-            )
+        p_IT_I, v_IT_I = initial_orbit_state(orbit)
         self._A_cw = None
         if orbit.gravity == "cw":
             n = math.sqrt(np.dot(v_IT_I, v_IT_I) / np.dot(p_IT_I, p_IT_I))
@@ -146,10 +159,7 @@ class OrbitalDynamics(LeafSystem):
 
     def _lvlh(self, p_IT_I, v_IT_I):
         """(R_IL, w_IL_L) of the target's LVLH frame; identity and zero in free space."""
-        if self._gravity == "free_space":
-            return np.eye(3), np.zeros(3)
-        a_IT_I = gravity_acceleration(p_IT_I, self._gravity)
-        return lvlh_rotation(p_IT_I, v_IT_I), lvlh_angular_velocity(p_IT_I, v_IT_I, a_IT_I)
+        return lvlh_of(p_IT_I, v_IT_I, self._gravity)
 
     def _split(self, context):
         x = context.get_continuous_state_vector().CopyToVector()

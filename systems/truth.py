@@ -58,7 +58,6 @@ from pydrake.systems.framework import BasicVector, Context, LeafSystem, ValuePro
 
 from rpod.models.frames import (
     inertial_to_lvlh,
-    lvlh_angular_velocity,
     lvlh_rotation,
     lvlh_to_inertial,
     quaternion_wxyz,
@@ -66,41 +65,17 @@ from rpod.models.frames import (
 )
 from rpod.models.gravity import (
     GRAVITY_MODELS,
-    circular_orbit_state,
-    gravity_acceleration,
     gravity_acceleration_xyz,
 )
 from rpod.models.rigid_body import validate_inertia
 from rpod.models.thrusters import ThrusterLayout, validate_layout, wrench_matrix
-from rpod.systems.orbital_dynamics import OrbitConfig
+from rpod.systems.orbital_dynamics import OrbitConfig, initial_orbit_state, lvlh_of
 
 # The state layout (module docstring).
 STATE_SIZE = 27
 TARGET_ORBIT, RELATIVE, MASS = slice(0, 6), slice(6, 12), 12
 TARGET_ATTITUDE, CHASER_ATTITUDE = slice(13, 20), slice(20, 27)
 MEMO_SIZE = 4096  # ON/OFF patterns remembered by the thrust cache (2^12: every rcs_cube_12 one)
-
-
-def initial_orbit_state(orbit: OrbitConfig) -> tuple[np.ndarray, np.ndarray]:
-    """(p_IT_I, v_IT_I) at t = 0: the circular orbit of `orbit`, or rest at the origin in free
-    space."""
-    if orbit.gravity == "free_space":
-        return np.zeros(3), np.zeros(3)
-    return circular_orbit_state(
-        orbit.altitude_m,
-        math.radians(orbit.inclination_deg),
-        math.radians(orbit.raan_deg),
-        math.radians(orbit.arg_latitude_deg),
-    )
-
-
-def lvlh_of(p_IT_I: np.ndarray, v_IT_I: np.ndarray, gravity: str) -> tuple[np.ndarray, np.ndarray]:
-    """(R_IL, w_IL_L) of the target's LVLH frame (as `OrbitalDynamics`); identity and zero in
-    free space."""
-    if gravity == "free_space":
-        return np.eye(3), np.zeros(3)
-    a_IT_I = gravity_acceleration(p_IT_I, gravity)
-    return lvlh_rotation(p_IT_I, v_IT_I), lvlh_angular_velocity(p_IT_I, v_IT_I, a_IT_I)
 
 
 def _unit_quaternion(q) -> np.ndarray:
