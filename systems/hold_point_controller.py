@@ -123,7 +123,7 @@ def _pointing_rotation(z_axis: np.ndarray, x_hint: np.ndarray, fallback: np.ndar
 class HoldPointController(LeafSystem):
     """Sampled hold-point law (module docstring), output held between samples.
 
-    Input port: sensed (27, the sensed bundle of rpod.systems.sensed).
+    Input port: sensed (33, the sensed bundle of rpod.systems.sensed).
     Output ports: body_wrench_desired (6, [tau_C; f_C]), hold_point_L (3), reference_L (3).
     """
 

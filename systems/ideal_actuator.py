@@ -47,7 +47,7 @@ class IdealActuator(LeafSystem):
 
     Input ports:
         command (3): acceleration [m/s^2] or force [N], in L or C.
-        sensed (27): the sensed bundle (rpod.systems.sensed), for R_CL.
+        sensed (33): the sensed bundle (rpod.systems.sensed), for R_CL.
         chaser_mass (1): the chaser's current mass [kg].
     Output ports:
         body_wrench (6): [0; f_C] [N m; N].

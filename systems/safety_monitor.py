@@ -31,7 +31,7 @@ from rpod.systems.sensed import Sensed, declare_sensed_input
 class SafetyMonitor(LeafSystem):
     """Monitors separation, corridor and capture-point speed (see the module docstring).
 
-    Input port: sensed (27, the sensed bundle of rpod.systems.sensed).
+    Input port: sensed (33, the sensed bundle of rpod.systems.sensed).
     Output ports: separation_m (1), corridor_violation_rad (1), capture_speed_m_s (1),
         capture_distance_m (1): |p_DE|, from the docking port D to the chaser's capture point E,
         port_distance_m (1): |p_DC|, from the docking port D to the chaser's centre of mass.

@@ -313,7 +313,7 @@ class _Memory:
 class SoftCaptureController(LeafSystem):
     """Sampled soft-capture law (module docstring), output held between samples.
 
-    Input port: sensed (27, the sensed bundle of rpod.systems.sensed).
+    Input port: sensed (33, the sensed bundle of rpod.systems.sensed).
     Output ports: body_wrench_desired (6, [tau_C; f_C]), reference_L (3, the planned position
         at the sample; NaN in fallback), force_feedforward_L (3, the planned force in L [N]),
         controller_mode (1, a ``MODES`` code), planner_status (1, a ``PLANNER_STATUSES`` code of

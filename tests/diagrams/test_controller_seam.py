@@ -29,6 +29,7 @@ from rpod.diagrams.controller_seam import (
 )
 from rpod.models.thrusters import STANDARD_GRAVITY_M_S2
 from rpod.scenarios import cli
+from rpod.systems.sensed import SENSED_SIZE
 
 ISP_S = 220.0
 
@@ -38,7 +39,7 @@ class _Constant(LeafSystem):
 
     def __init__(self, value):
         super().__init__()
-        self.DeclareVectorInputPort("sensed", 27)
+        self.DeclareVectorInputPort("sensed", SENSED_SIZE)
         value = np.asarray(value, float)
         self.DeclareVectorOutputPort("command", len(value), lambda c, o: o.SetFromVector(value))
 

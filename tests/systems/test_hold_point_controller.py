@@ -63,7 +63,7 @@ def test_structure():
         controller.get_input_port(i).get_name(): controller.get_input_port(i).size()
         for i in range(controller.num_input_ports())
     }
-    assert sizes == {"sensed": 27}  # the sensed bundle, rpod.systems.sensed
+    assert sizes == {"sensed": 33}  # the sensed bundle, rpod.systems.sensed
     assert controller.GetOutputPort("body_wrench_desired").size() == 6
     assert not controller.HasAnyDirectFeedthrough()  # held between samples
 

@@ -62,7 +62,7 @@ def test_structure():
     controller = SoftCaptureController(SoftCaptureControllerConfig(), J_CHASER, J_TARGET)
     inputs = {controller.get_input_port(i).get_name(): controller.get_input_port(i).size()
               for i in range(controller.num_input_ports())}  # fmt: skip
-    assert inputs == {"sensed": 27}  # the sensed bundle, rpod.systems.sensed
+    assert inputs == {"sensed": 33}  # the sensed bundle, rpod.systems.sensed
     outputs = {
         controller.get_output_port(i).get_name() for i in range(controller.num_output_ports())
     }
