@@ -2,21 +2,29 @@
 
 Owns: `LosMpcSettings` (horizon, weights, input bound, solver tolerances), `LosCorridorMpc`
 (the QP, built once) and `MpcResult`. Does not own: the prediction model A_d, B_d (given per
-step: CW's exact STM and ZOH input matrix, rpod.models.cw, or an online linearisation), the
-corridor (rpod.models.los_corridor), the reference or what a controller does when the QP fails.
+step, one pair for the whole horizon or one per predicted step: CW's exact STM and ZOH input
+matrix, or the online linearisation, rpod.planners.los_prediction), the corridor
+(rpod.models.los_corridor), the reference or what a controller does when the QP fails.
 
 The QP (eq. 11), over z = [x_0, ..., x_N, u_0, ..., u_{N-1}] (N = N_p):
 
     min  sum_{j<N} |x_j - x_ref|_Q^2 + |x_N - x_ref|_{Q_N}^2
-         + sum_{j<N} |u_j|_{R_u}^2 + |u_j - u_{j-1}|_{R_du}^2        (11a; u_{-1}: last applied)
+         + sum_{j<N} |u_j - u_nom|_{R_u}^2 + |u_j - u_{j-1}|_{R_du}^2  (11a; u_{-1}: last applied)
     s.t. x_0 = x_k                                                    (11c)
-         x_{j+1} = A_d x_j + B_d u_j,  j < N                          (11b)
+         x_{j+1} = A_d,j x_j + B_d,j u_j,  j < N                      (11b)
          A_c [x_j]_{1:3} <= b_c,  j = 0..N                            (11d)
          -a_max <= u_j <= a_max                                       (11e)
 
 written as OSQP's min 1/2 z'Pz + q'z, l <= A z <= u. The input-rate term is u' D' R D u -
 2 e' R D u + const with D the first difference (its first row the identity) and e = [u_{-1}, 0,
-...], so P is constant and only q depends on x_ref and u_{-1}.
+...], so P is constant and only q depends on x_ref, u_nom and u_{-1}.
+
+u_nom is the guidance law's nominal command (paper 004 Sec. 7: "the nominal PD command is
+refined through the QP-based MPC safety filter"): the paper's 11a has |u_j|_{R_u}, which is
+u_nom = 0, and does not say how the PD command enters; centring the small input weight on it
+is how it does here (R_u = 1e-2 against Q's 15-30 keeps the tracking and the constraints in
+charge). A_d,j = A_d for all j is the paper's frozen-over-the-horizon model; one per step is the
+predicted-attitude model of a non-principal tumble.
 
 Persistence (what the paper's public code does not do: it rebuilds OSQP every step, so its warm
 start never takes effect). The problem is set up once. The constraint matrix's sparsity is
@@ -160,6 +168,7 @@ class LosCorridorMpc:
         P_u = sp.kron(sp.eye(N), R_u) + D_blk.T @ R_du_blk @ D_blk
         self._P = sp.triu(2.0 * sp.block_diag([P_x, P_u]), format="csc")
         self._Q = Q
+        self._R_u = R_u
         self._Q_N = settings.terminal_factor * Q
 
         # Constraints: rows [x_0 = x_k (6); dynamics (6N); corridor (nc (N+1)); inputs (3N)].
@@ -180,12 +189,12 @@ class LosCorridorMpc:
             for i in range(nx):
                 add(r0 + i, nx * (j + 1) + i, 1.0)  # x_{j+1}
             for i in range(nx):
-                for k in range(nx):  # -A_d x_j
+                for k in range(nx):  # -A_d,j x_j
                     add(r0 + i, nx * j + k, 0.0, len(self._dynamics_slots))
-                    self._dynamics_slots.append(("A", i, k))
-                for k in range(nu):  # -B_d u_j
+                    self._dynamics_slots.append((j, "A", i, k))
+                for k in range(nu):  # -B_d,j u_j
                     add(r0 + i, self._u_offset + nu * j + k, 0.0, len(self._dynamics_slots))
-                    self._dynamics_slots.append(("B", i, k))
+                    self._dynamics_slots.append((j, "B", i, k))
         r_corr = nx + nx * N
         for j in range(N + 1):
             for i in range(nc):
@@ -208,18 +217,22 @@ class LosCorridorMpc:
         )
         entry_ids = np.asarray(ids)[order]
         self._dyn_csc_slots = np.flatnonzero(entry_ids >= 0)  # csc slots of A_d, B_d entries
-        # Where each of those slots takes its value in [A_d.ravel(), B_d.ravel()] (negated).
+        # Where each of those slots takes its value in [A_d,j.ravel(), B_d,j.ravel()] over j
+        # (negated): 54 values per step.
         source = np.array(
-            [6 * i + k if kind == "A" else 36 + 3 * i + k for kind, i, k in self._dynamics_slots]
+            [
+                54 * j + (6 * i + k if kind == "A" else 36 + 3 * i + k)
+                for j, kind, i, k in self._dynamics_slots
+            ]
         )
         self._slot_source = source[entry_ids[self._dyn_csc_slots]]
         self._last_dynamics = None  # (A_d, B_d) last written into the solver
         self._last_solution = None  # (x, y) of the last successful solve, for the shift
         self._nc = nc
-        self._l = np.concatenate([np.zeros(nx * (N + 1)), np.full(nc * (N + 1), -np.inf),
-                                  np.full(nu * N, -settings.a_max_m_s2)])  # fmt: skip
-        self._u = np.concatenate([np.zeros(nx * (N + 1)), np.tile(self._b_c, N + 1),
-                                  np.full(nu * N, settings.a_max_m_s2)])  # fmt: skip
+        a_max = settings.a_max_m_s2
+        x_rows = np.zeros(nx * (N + 1))
+        self._l = np.concatenate([x_rows, np.full(nc * (N + 1), -np.inf), np.full(nu * N, -a_max)])
+        self._u = np.concatenate([x_rows, np.tile(self._b_c, N + 1), np.full(nu * N, a_max)])
         self._solver = osqp.OSQP()
         self._solver.setup(
             P=self._P,
@@ -235,26 +248,41 @@ class LosCorridorMpc:
             verbose=False,
         )
 
-    def qp(self, x_k, x_ref, u_prev, A_d, B_d):
+    def qp(self, x_k, x_ref, u_prev, A_d, B_d, u_nom=None):
         """(P, q, A, l, u) of the QP at these data (P upper triangular): for a reference solve."""
         A = self._A.copy()
-        A.data[self._dyn_csc_slots] = self._dynamics_values(A_d, B_d)
+        A.data[self._dyn_csc_slots] = self._dynamics_values(*self._per_step(A_d, B_d))
         l, u = self._l.copy(), self._u.copy()
         l[:6] = u[:6] = x_k
-        return self._P, self._linear_cost(x_ref, u_prev), A, l, u
+        return self._P, self._linear_cost(x_ref, u_prev, u_nom), A, l, u
+
+    def _per_step(self, A_d, B_d) -> tuple[np.ndarray, np.ndarray]:
+        """(A_d (N, 6, 6), B_d (N, 6, 3)) from one pair or one per step."""
+        A_d, B_d = np.asarray(A_d, dtype=float), np.asarray(B_d, dtype=float)
+        if A_d.shape == (6, 6) and B_d.shape == (6, 3):
+            return np.broadcast_to(A_d, (self.N, 6, 6)), np.broadcast_to(B_d, (self.N, 6, 3))
+        if A_d.shape != (self.N, 6, 6) or B_d.shape != (self.N, 6, 3):
+            raise ValueError(
+                f"A_d, B_d: expected (6, 6) and (6, 3), or ({self.N}, 6, 6) and ({self.N}, 6, 3);"
+                f" got {A_d.shape} and {B_d.shape}"
+            )
+        return A_d, B_d
 
     def _dynamics_values(self, A_d, B_d) -> np.ndarray:
-        """The constraint matrix's A_d, B_d slots (negated), in CSC slot order."""
-        flat = np.concatenate([np.ravel(A_d), np.ravel(B_d)]).astype(float)
-        return -flat[self._slot_source]
+        """The constraint matrix's A_d,j, B_d,j slots (negated), in CSC slot order."""
+        flat = np.concatenate([A_d.reshape(self.N, 36), B_d.reshape(self.N, 18)], axis=1)
+        return -flat.ravel()[self._slot_source]
 
-    def _linear_cost(self, x_ref, u_prev) -> np.ndarray:
-        """q: -2 Q x_ref on each state (Q_N on the last), -2 R_du u_{-1} on u_0."""
+    def _linear_cost(self, x_ref, u_prev, u_nom=None) -> np.ndarray:
+        """q: -2 Q x_ref on each state (Q_N on the last), -2 R_u u_nom on each input and
+        -2 R_du u_{-1} on u_0."""
         q = np.zeros(self._nz)
         x_ref = np.asarray(x_ref, dtype=float)
         q[: 6 * self.N] = np.tile(-2.0 * self._Q @ x_ref, self.N)
         q[6 * self.N : self._u_offset] = -2.0 * self._Q_N @ x_ref
-        q[self._u_offset : self._u_offset + 3] = -2.0 * self._R_du @ np.asarray(u_prev, float)
+        if u_nom is not None:
+            q[self._u_offset :] = np.tile(-2.0 * self._R_u @ np.asarray(u_nom, float), self.N)
+        q[self._u_offset : self._u_offset + 3] -= 2.0 * self._R_du @ np.asarray(u_prev, float)
         return q
 
     @staticmethod
@@ -278,18 +306,27 @@ class LosCorridorMpc:
         self._shift(y, 6 + 6 * N + nc * (N + 1), 3, N)
         return y
 
-    def solve(self, x_k, x_ref, u_prev, A_d, B_d) -> MpcResult:
-        """One receding-horizon step: updates the data, solves warm, returns u_0 (eq. 11)."""
+    def solve(self, x_k, x_ref, u_prev, A_d, B_d, u_nom=None) -> MpcResult:
+        """One receding-horizon step: updates the data, solves warm, returns u_0 (eq. 11).
+
+        Args:
+            x_k: the current body-frame state (6).
+            x_ref: the reference state (6).
+            u_prev: u_{-1}, the input applied last (3).
+            A_d, B_d: the prediction model, (6, 6) and (6, 3) for the whole horizon or
+                (N, 6, 6) and (N, 6, 3), one per predicted step.
+            u_nom: the nominal command the input weight is centred on (3; None: 0, the paper).
+        """
         start = time.perf_counter()
         l, u = self._l, self._u
         l[:6] = u[:6] = np.asarray(x_k, dtype=float)
-        A_d, B_d = np.asarray(A_d, dtype=float), np.asarray(B_d, dtype=float)
+        A_d, B_d = self._per_step(A_d, B_d)
         last = self._last_dynamics
         if last is None or not (np.array_equal(last[0], A_d) and np.array_equal(last[1], B_d)):
             # New model values only (the pattern is fixed): OSQP refactors numerically.
             self._solver.update(Ax=self._dynamics_values(A_d, B_d), Ax_idx=self._dyn_csc_slots)
             self._last_dynamics = (A_d.copy(), B_d.copy())
-        self._solver.update(q=self._linear_cost(x_ref, u_prev), l=l, u=u)
+        self._solver.update(q=self._linear_cost(x_ref, u_prev, u_nom), l=l, u=u)
         if self.settings.shift_warm_start and self._last_solution is not None:
             self._solver.warm_start(x=self._shifted_primal(), y=self._shifted_dual())
         result = self._solver.solve(raise_error=False)  # a failure is a status, not a raise

@@ -66,6 +66,33 @@ def test_osqp_persistent_solve_equals_clarabel_before_and_after_an_update(horizo
         np.testing.assert_allclose(result.u, u_ref, atol=1e-5)
 
 
+def test_per_step_models_and_a_nominal_command_equal_clarabel():
+    """One A_d, B_d per predicted step (a non-principal tumble's model) and the input weight
+    centred on a nominal command: the same QP by Clarabel agrees, every constraint holds.
+
+    R_u = 10 I here: at the paper's 1e-2 the centre moves u_0 by ~1e-8 m/s^2 only."""
+    horizon = 20
+    settings = LosMpcSettings(horizon=horizon, R_u_diag=[10.0] * 3, **TIGHT)
+    mpc = LosCorridorMpc(settings, CORRIDOR.A_c, CORRIDOR.b_c)
+    models = [_model(DT * (1.0 + 0.02 * j)) for j in range(horizon)]  # a different one each step
+    A_d, B_d = np.array([m[0] for m in models]), np.array([m[1] for m in models])
+    x_k = np.array([2.0, 40.0, 1.0, 0.0, -0.3, 0.0])
+    x_ref, u_nom = np.array([0.0, 10.0, 0.0, 0.0, 0.0, 0.0]), np.array([0.05, -0.08, 0.0])
+    result = mpc.solve(x_k, x_ref, np.zeros(3), A_d, B_d, u_nom=u_nom)
+    assert result.status is MpcStatus.SOLVED
+    x, u = result.x, result.u
+    residual = x[1:] - (np.einsum("jik,jk->ji", A_d, x[:-1]) + np.einsum("jik,jk->ji", B_d, u))
+    assert np.max(np.abs(residual)) < 1e-6  # (11b), each step with its own model
+    assert np.all(CORRIDOR.slack(x[:, :3]) >= -1e-6) and np.all(np.abs(u) <= 0.1 + 1e-6)
+    z_ref, _ = _clarabel(*mpc.qp(x_k, x_ref, np.zeros(3), A_d, B_d, u_nom=u_nom))
+    np.testing.assert_allclose(u, z_ref[6 * (horizon + 1) :].reshape(horizon, 3), atol=1e-5)
+    # The nominal command moves the solution (u_nom = 0 is the paper's 11a).
+    plain = mpc.solve(x_k, x_ref, np.zeros(3), A_d, B_d)
+    assert np.max(np.abs(plain.u - result.u)) > 1e-4
+    with pytest.raises(ValueError, match="A_d, B_d"):
+        mpc.solve(x_k, x_ref, np.zeros(3), A_d[:5], B_d[:5])
+
+
 def test_the_input_bound_and_the_corridor_are_active_when_the_reference_pulls_out():
     """A reference outside the corridor: the solution rides the corridor, inputs bounded."""
     settings = LosMpcSettings(horizon=20, a_max_m_s2=0.02, **TIGHT)
