@@ -259,7 +259,7 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
             builder, meshcat, scenario.visualization, sensed_port, geometry
         )
         if wiring is not None:
-            plugin.add_scene_extras(builder, meshcat, scenario, wiring)
+            plugin.add_scene_extras(builder, meshcat, scenario, wiring, scene)
 
     diagram = builder.Build()
     diagram.set_name(scenario.description or "rpod")

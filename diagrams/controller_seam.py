@@ -163,8 +163,14 @@ class ControllerPlugin:
         """Summary and log entries of a finished run (`context` is the diagram's root)."""
         return ControllerResults()
 
-    def add_scene_extras(self, builder, meshcat, scenario, wiring: ControllerWiring) -> None:
-        """Draws what the controller adds to the Meshcat scene (nothing by default)."""
+    def add_scene_extras(
+        self, builder, meshcat, scenario, wiring: ControllerWiring, scene=None
+    ) -> None:
+        """Draws what the controller adds to the Meshcat scene (nothing by default).
+
+        `scene` is the scene's RendezvousScene: geometry registered on its target frame
+        (`RegisterTargetGeometry`) turns with the target in the live view and the recording.
+        """
 
     def planned_end_s(self, wiring: ControllerWiring, context) -> float | None:
         """When the controller's own plan ends (e.g. a planned capture), read after the

@@ -17,6 +17,8 @@ Two drawing paths are used (the split is deliberate):
   its convex hull (faces from scipy's Qhull, wound outward), which Meshcat draws as that hull.
   `RendezvousScene` outputs their poses as a FramePoseVector and a `MeshcatVisualizer` draws them
   under `/drake/<prefix>/bodies`. Its transforms carry the simulation time, so they are recorded.
+  `RegisterTargetGeometry` adds more shapes fixed in T the same way (paper 004's LOS corridor,
+  rpod.systems.los_corridor_scene).
 - Overlays (option b), drawn directly with Meshcat under `/drake/<prefix>/overlay` from this
   system's initialization and periodic publish events:
   * `lvlh_triad`: three cylinders at the origin, x red, y green, z blue (static).
@@ -66,6 +68,7 @@ from pydrake.geometry import (
     Cylinder,
     FramePoseVector,
     GeometryFrame,
+    GeometryId,
     GeometryInstance,
     InMemoryMesh,
     MakePhongIllustrationProperties,
@@ -239,7 +242,7 @@ class RendezvousScene(LeafSystem):
     """Poses of the target and chaser bodies in L, plus Meshcat overlays (corridor, trail, LVLH).
 
     Input port:
-        sensed (27): the sensed bundle (rpod.systems.sensed); the scene draws p_LC_L, q_IL,
+        sensed (33): the sensed bundle (rpod.systems.sensed); the scene draws p_LC_L, q_IL,
             q_IT and q_IC.
     Output port:
         geometry_pose: FramePoseVector with X_LT and X_LC, for SceneGraph.
@@ -273,6 +276,8 @@ class RendezvousScene(LeafSystem):
 
         self._sensed_port = declare_sensed_input(self)
 
+        # Kept for RegisterTargetGeometry (extra geometry fixed in T, e.g. paper 004's corridor).
+        self._scene_graph = scene_graph
         self._source_id = scene_graph.RegisterSource("rpod_scene")
         self._target_frame_id = self._RegisterBody(
             scene_graph,
@@ -334,6 +339,32 @@ class RendezvousScene(LeafSystem):
                 self._source_id, axis_id, MakePhongIllustrationProperties(AXIS_RGBA[axis].rgba)
             )
         return frame_id
+
+    def RegisterTargetGeometry(
+        self, name: str, shape, X_TG: RigidTransform, rgba: Rgba
+    ) -> GeometryId:
+        """Registers a shape fixed in the target frame T, drawn like the bodies (illustration).
+
+        The geometry G follows X_LT in the live view and in recordings. Call it before a
+        context of the diagram is created (SceneGraph copies its model into each new context).
+
+        Args:
+            name: geometry name, unique on the target frame; Meshcat shows it under the
+                visualizer's prefix, then "target/<name>".
+            shape: any SceneGraph shape (Convex, Sphere, Cylinder, ...).
+            X_TG: pose of the shape's frame G in T.
+            rgba: colour; an alpha below 1 draws it translucent.
+
+        Returns:
+            The GeometryId.
+        """
+        geometry_id = self._scene_graph.RegisterGeometry(
+            self._source_id, self._target_frame_id, GeometryInstance(X_TG, shape, name)
+        )
+        self._scene_graph.AssignRole(
+            self._source_id, geometry_id, MakePhongIllustrationProperties(rgba.rgba)
+        )
+        return geometry_id
 
     def get_geometry_pose_output_port(self) -> OutputPort:
         """FramePoseVector output for SceneGraph."""
@@ -489,7 +520,7 @@ class RendezvousScene(LeafSystem):
             builder: the diagram builder holding the sensed port.
             meshcat: Meshcat to draw in.
             config: how to draw (a scenario's `visualization` block).
-            sensed: the sensed bundle's port (27, rpod.systems.sensed).
+            sensed: the sensed bundle's port (33, rpod.systems.sensed).
             geometry: what to draw (default: SceneGeometry()).
             scene_graph: an existing SceneGraph in `builder` to register with; a new one is
                 added when None.

@@ -316,7 +316,7 @@ class SoftCapturePlugin(ControllerPlugin):
             {name: controller.GetOutputPort(name) for name in LOGGED},
         )
 
-    def add_scene_extras(self, builder, meshcat, scenario, wiring) -> None:
+    def add_scene_extras(self, builder, meshcat, scenario, wiring, scene=None) -> None:
         from rpod.systems.scene import PlannedPathOverlay  # only when drawing
 
         overlay = builder.AddNamedSystem(

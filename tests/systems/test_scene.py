@@ -64,6 +64,7 @@ def _add_sources(builder: DiagramBuilder, q_IL: np.ndarray) -> dict:
         "chaser_attitude": builder.AddSystem(ConstantVectorSource(np.r_[q_IC, 0.0, 0.0, 0.0])),
     }
     sources["w_IL_L"] = builder.AddSystem(ConstantVectorSource(np.zeros(3)))
+    sources["target_state_I"] = builder.AddSystem(ConstantVectorSource(np.full(6, np.nan)))
     bundle = builder.AddSystem(Multiplexer([size for _, size in SENSED_FIELDS]))
     for index, (name, _) in enumerate(SENSED_FIELDS):
         builder.Connect(sources[name].get_output_port(), bundle.get_input_port(index))
@@ -100,7 +101,7 @@ def test_poses_in_lvlh_match_independent_rotation():
     scene_graph = SceneGraph()
     scene = RendezvousScene(scene_graph, make_headless_meshcat(), SceneConfig())
     assert scene.num_input_ports() == 1 and scene.get_input_port(0).get_name() == "sensed"
-    assert scene.get_input_port(0).size() == 27  # the sensed bundle, rpod.systems.sensed
+    assert scene.get_input_port(0).size() == 33  # the sensed bundle, rpod.systems.sensed
     context = scene.CreateDefaultContext()
     # Non-unit quaternions (scaled by 2) as a drifting integrator would give.
     scene.GetInputPort("sensed").FixValue(
