@@ -1,10 +1,12 @@
 """Earth gravity models (two-body and J2) and circular-orbit set-up.
 
-Owns: the gravitational constants, the point-mass and J2 accelerations in ECI (frame I), the
-analytic secular J2 nodal-regression rate, and the circular orbit state from orbital elements.
+Owns: the gravitational constants, the point-mass and J2 accelerations in ECI (frame I) and
+their analytic gradient, the analytic secular J2 nodal-regression rate, and the circular orbit
+state from orbital elements.
 Does not own: integration (see rpod.systems.orbital_dynamics) or relative motion (rpod.models.cw).
 
-Every function takes numpy arrays (float or AutoDiffXd object arrays) and returns numpy arrays.
+Every function takes numpy arrays (float or AutoDiffXd object arrays) and returns numpy arrays,
+except the float-only hot paths `gravity_acceleration_xyz` and `gravity_gradient`.
 """
 
 from __future__ import annotations
@@ -73,6 +75,40 @@ def gravity_acceleration_xyz(
     s = 5.0 * z * z / r2
     kxy = k0 + k * (1.0 - s)
     return kxy * x, kxy * y, (k0 + k * (3.0 - s)) * z
+
+
+def gravity_gradient(p_I: np.ndarray, model: str) -> np.ndarray:
+    """G = d a / d p (3, 3) of `gravity_acceleration(p_I, model)`, analytic, float only.
+
+    With u = p / r, s = 5 u_z^2 and k = -3/2 J2 mu R^2 / r^5 (the factor of `j2_acceleration`):
+
+        two-body:  G = -mu / r^3 (I - 3 u u^T)
+        J2:  G_J2 = k [diag(1 - s, 1 - s, 3 - s) + (7 s - 5) u u^T - 10 u_z (u e_z^T + e_z u^T)]
+
+    G is symmetric (the Hessian of the potential). 'cw' is two-body here, as in
+    `gravity_acceleration`; free space gives zeros.
+    """
+    if model == "free_space":
+        return np.zeros((3, 3))
+    if model not in GRAVITY_MODELS:
+        raise ValueError(f"unknown gravity model '{model}', expected one of {GRAVITY_MODELS}")
+    x, y, z = float(p_I[0]), float(p_I[1]), float(p_I[2])
+    r2 = x * x + y * y + z * z
+    r = math.sqrt(r2)
+    u = np.array([x / r, y / r, z / r])
+    uu = np.outer(u, u)
+    G = (-MU_EARTH_M3_S2 / (r2 * r)) * (np.eye(3) - 3.0 * uu)  # d(-mu p / r^3) / dp
+    if model == "two_body_j2":
+        k = -1.5 * J2_EARTH * MU_EARTH_M3_S2 * R_EARTH_M * R_EARTH_M / (r2 * r2 * r)
+        s = 5.0 * u[2] * u[2]
+        G_j2 = (7.0 * s - 5.0) * uu
+        G_j2[0, 0] += 1.0 - s
+        G_j2[1, 1] += 1.0 - s
+        G_j2[2, 2] += 3.0 - s
+        G_j2[:, 2] -= 10.0 * u[2] * u  # d s / d z, on every row (column z)
+        G_j2[2, :] -= 10.0 * u[2] * u  # the z row: d(3 / r^5) = -15, not -5, u / r^6
+        G += k * G_j2
+    return G
 
 
 def mean_motion(semi_major_axis_m: float, mu: float = MU_EARTH_M3_S2) -> float:

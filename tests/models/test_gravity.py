@@ -14,6 +14,7 @@ import math
 
 import numpy as np
 import pytest
+from pydrake.autodiffutils import ExtractGradient, InitializeAutoDiff
 from scipy.integrate import solve_ivp
 
 from rpod.models.gravity import (
@@ -23,6 +24,7 @@ from rpod.models.gravity import (
     circular_orbit_state,
     gravity_acceleration,
     gravity_acceleration_xyz,
+    gravity_gradient,
     j2_acceleration,
     j2_nodal_regression_rate,
     mean_motion,
@@ -291,3 +293,35 @@ def test_float_hot_path_matches_numpy_gravity(model):
         a_xyz = np.array(gravity_acceleration_xyz(float(p[0]), float(p[1]), float(p[2]), model))
         scale = max(np.linalg.norm(a_ref), 1e-300)
         np.testing.assert_allclose(a_xyz / scale, a_ref / scale, rtol=0, atol=1e-15)
+
+
+def _autodiff_gradient(acceleration, p):
+    """d acceleration / d p (3, 3) by forward-mode AutoDiffXd through the acceleration itself."""
+    return ExtractGradient(acceleration(InitializeAutoDiff(p).reshape(3)))
+
+
+def test_gravity_gradient_matches_autodiff():
+    # LEO on the equator, at 60 and 85 deg latitude and on the pole, MEO, and random points.
+    points = [
+        [R_EARTH_M + 500e3, 0.0, 0.0],
+        [3.4e6, 1.0e5, 5.9e6],
+        [4.0e5, -4.0e5, 6.85e6],
+        [0.0, 0.0, 6.9e6],
+        [1.2e7, -2.0e7, 3.0e6],
+        *_random_points(np.random.default_rng(3), 8),
+    ]
+    for p in np.array(points, dtype=float):
+        for model in ("two_body_j2", "two_body", "cw"):
+            G = gravity_gradient(p, model)
+            G_ad = _autodiff_gradient(lambda q, m=model: gravity_acceleration(q, m), p)
+            # 1e-12 of |G|: both are the same derivative evaluated in double precision (measured
+            # ~2e-16); a wrong term is an O(1) (two-body) or O(J2) = 1e-3 (J2) miss.
+            np.testing.assert_allclose(G, G_ad, rtol=0, atol=1e-12 * np.abs(G_ad).max())
+            np.testing.assert_array_equal(G, G.T)  # a Hessian of the potential
+        # The J2 part alone, against the J2 scale (the check above sees it only at 1e-3 of |G|).
+        G_j2 = gravity_gradient(p, "two_body_j2") - gravity_gradient(p, "two_body")
+        G_j2_ad = _autodiff_gradient(j2_acceleration, p)
+        np.testing.assert_allclose(G_j2, G_j2_ad, rtol=0, atol=1e-12 * np.abs(G_j2_ad).max())
+        np.testing.assert_array_equal(gravity_gradient(p, "free_space"), np.zeros((3, 3)))
+    with pytest.raises(ValueError, match="unknown gravity model"):
+        gravity_gradient(np.array([7e6, 0.0, 0.0]), "j4")
