@@ -11,8 +11,16 @@ Figures, one file each (`FIGURE_NAMES`):
   thrust.png                   body torque and force (chaser frame C) and propellant used vs time.
   duty.png                     thruster duty cycles and the on/off pattern vs time.
   separation.png               separation distance and range |p_LC_L| vs time.
+Paper 004's rotating-LOS-corridor figures (`LOS_FIGURE_NAMES`, drawn by rpod.diagrams.plots_los,
+only for a run that logged los_* keys):
+  los_corridor.png             range and regime, distance to each corridor face, commanded and
+                               applied acceleration, MPC status and fallback vs time.
+  los_body_frame.png           chaser path in T on the x_T-y_T and z_T-y_T planes with the wedge.
 
 Decisions, written down as DESIGN.md asks:
+- Figures drawn by another module are registered here by a two-line wrapper that imports it when
+  first drawn (plots_los imports this module's helpers, so a module-level import would be
+  circular); their log keys are listed in `_SHAPES` with the others, so `_Log` checks them alike.
 - matplotlib through `matplotlib.figure.Figure` + the Agg canvas, never pyplot: no global figure
   registry, no backend switching, safe to call from worker threads (sweeps).
 - Missing data is not an error: a key that is absent, has the wrong shape, has zero columns or a
@@ -58,6 +66,7 @@ FIGURE_NAMES = (
     "duty.png",
     "separation.png",
 )
+LOS_FIGURE_NAMES = ("los_corridor.png", "los_body_frame.png")
 MAX_DUTY_LINES = 6  # more thrusters than this: duty drawn as a heatmap
 MAX_HEATMAP_COLUMNS = 800  # time columns of a heatmap after block averaging
 MAX_LINE_BUCKETS = 1000  # dense time series drawn as the min/max envelope of this many runs
@@ -82,6 +91,19 @@ _SHAPES = {
     "separation_m": None,
     "hold_point_L": 3,
     "p_TC_T": 3,
+    # Paper 004's LOS-corridor guidance (rpod.diagrams.plots_los, which documents each key).
+    "los_range_m": None,
+    "los_sync_range_m": None,
+    "los_hold_point_T": 3,
+    "los_face_distance_m": -1,  # faces 1..n_f, then the floor
+    "los_command_L": 3,
+    "los_nominal_L": 3,
+    "los_applied_L": 3,
+    "los_regime": None,
+    "los_mpc_status": None,
+    "los_fallback": None,
+    "los_a_max_m_s2": None,
+    "los_half_angle_deg": None,
 }
 
 
@@ -553,14 +575,28 @@ def _figure_separation(log: _Log, title: str) -> Figure | None:
     return fig
 
 
+def _figure_los_corridor(log: _Log, title: str) -> Figure | None:
+    from rpod.diagrams.plots_los import figure_los_corridor  # here: plots_los imports this module
+
+    return figure_los_corridor(log, title)
+
+
+def _figure_los_body_frame(log: _Log, title: str) -> Figure | None:
+    from rpod.diagrams.plots_los import figure_los_body_frame  # here: plots_los imports this module
+
+    return figure_los_body_frame(log, title)
+
+
 _FIGURES: dict[str, Callable[[_Log, str], Figure | None]] = {
     "trajectory_lvlh.png": _figure_trajectory_lvlh,
     "trajectory_target_body.png": _figure_trajectory_target_body,
     "thrust.png": _figure_thrust,
     "duty.png": _figure_duty,
     "separation.png": _figure_separation,
+    "los_corridor.png": _figure_los_corridor,
+    "los_body_frame.png": _figure_los_body_frame,
 }
-assert tuple(_FIGURES) == FIGURE_NAMES
+assert tuple(_FIGURES) == FIGURE_NAMES + LOS_FIGURE_NAMES
 
 
 # --------------------------------------------------------------------------------------------
@@ -586,13 +622,15 @@ def write_plots(log: Mapping[str, np.ndarray], out_dir: Path, title: str = "") -
         log: Time series keyed by name, time as the first axis (a dict, or an `np.load`ed npz):
             t (N) [s], p_LC_L (N, 3) [m], q_IT and q_IL (N, 4) (w, x, y, z), thruster_duty and
             thruster_on (N, n), body_wrench (N, 6) [N m, N] (torque then force, in C),
-            propellant_kg (N), separation_m (N), optional hold_point_L (N, 3) and p_TC_T (N, 3).
-            Any key may be missing; what cannot be drawn is skipped.
+            propellant_kg (N), separation_m (N), optional hold_point_L (N, 3) and p_TC_T (N, 3);
+            paper 004's los_* keys (rpod.diagrams.plots_los). Any key may be missing; what
+            cannot be drawn is skipped.
         out_dir: Output folder, e.g. runs/<scenario>/plots.
         title: Prefix of every figure's title, e.g. the scenario name.
 
     Returns:
-        The paths written, in `FIGURE_NAMES` order (figures without data are not written).
+        The paths written, in `FIGURE_NAMES + LOS_FIGURE_NAMES` order (figures without data are
+        not written).
     """
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
