@@ -39,6 +39,7 @@ from rpod.diagrams.scenario import (
     body_polytopes,
     chaser_rotation_in_lvlh,
     docking_geometry,
+    initial_relative_state_L,
     make_thruster_layout,
     target_rotation_in_lvlh,
     validate_scenario,
@@ -91,8 +92,9 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
     sensed_port = bundle.get_output_port()
     plugin = controller_seam.plugin_for(scenario.controller)
     wiring = plugin.add_to_diagram(builder, scenario, sensed_port) if plugin else None
-    if wiring is not None and wiring.actuation is not plugin.actuation:
-        raise ValueError(f"!{plugin.tag} declared {plugin.actuation} but wired {wiring.actuation}")
+    if wiring is not None and wiring.actuation is not plugin.actuation_for(scenario.controller):
+        declared = plugin.actuation_for(scenario.controller)
+        raise ValueError(f"!{plugin.tag} declared {declared} but wired {wiring.actuation}")
     ideal = wiring is not None and wiring.actuation is Actuation.IDEAL
     gimbaled = layout is not None and layout.gimbaled and not ideal
     # The truth holds a fixed bank itself; an ideal actuator or a gimbaled bank (its force
@@ -103,8 +105,7 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
         "truth",
         Truth(
             scenario.orbit,
-            np.asarray(chaser.p_LC_L, float),
-            np.asarray(chaser.v_LC_L, float),
+            *initial_relative_state_L(scenario),
             chaser.mass_kg,
             J_T,
             quaternion_wxyz(R_IL0 @ target_rotation_in_lvlh(scenario)),

@@ -137,6 +137,10 @@ class ControllerPlugin:
         """The YAML tag that selects this controller, without '!'."""
         return self.config_type.__name__
 
+    def actuation_for(self, config) -> Actuation:
+        """The path this config drives: `actuation` unless a plug-in's config chooses one."""
+        return self.actuation
+
     def validate(self, config, scenario) -> None:
         """Raises ScenarioError (field relative to the scenario) on a bad config.
 

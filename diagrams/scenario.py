@@ -29,7 +29,7 @@ from rpod.models.shapes import (
 )
 from rpod.models.thrusters import ThrusterLayout
 from rpod.planners.pointing import min_rotation
-from rpod.systems.orbital_dynamics import OrbitConfig
+from rpod.systems.orbital_dynamics import OrbitConfig, initial_orbit_state, lvlh_of
 from rpod.systems.scene import SceneConfig
 
 THRUSTER_LAYOUTS = ("rcs_cube_12", "planar_8", "gimbaled_cuboid_8")
@@ -75,7 +75,11 @@ class ChaserConfig:
 
     Args:
         p_LC_L: initial position of the chaser's centre of mass in LVLH [m].
-        v_LC_L: initial velocity seen in the rotating LVLH frame [m/s].
+        v_LC_L: initial velocity seen in the rotating LVLH frame [m/s], or, with
+            velocity_seen_in 'T', seen in the tumbling target's frame (expressed in L).
+        velocity_seen_in: 'L' (default) or 'T': with 'T', v_LC_L = [0, 0, 0] starts the chaser
+            at rest relative to the tumbling target, co-rotating with it (paper 004 Sec. 9's
+            starts: zero velocity in the body frame).
         rpy_LC_deg: initial attitude relative to LVLH, roll-pitch-yaw [deg].
         point_at_target: instead of rpy_LC_deg, start with the capture axis (the direction of
             capture_point_C) on the line of sight to the target: the least rotation from L
@@ -93,6 +97,7 @@ class ChaserConfig:
 
     p_LC_L: list[float] = dataclasses.field(default_factory=lambda: [0.0, -30.0, 0.0])
     v_LC_L: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    velocity_seen_in: str = "L"
     rpy_LC_deg: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.0])
     point_at_target: bool = False
     w_IC_C_deg_s: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.0])
@@ -299,6 +304,20 @@ def target_rotation_in_lvlh(scenario: Scenario) -> np.ndarray:
     return rotation_from_rpy_deg(target.rpy_LT_deg or [0.0, 0.0, 0.0])
 
 
+def initial_relative_state_L(scenario: Scenario) -> tuple[np.ndarray, np.ndarray]:
+    """(p_LC_L, v_LC_L) at t = 0, the velocity seen in L whatever chaser.velocity_seen_in says.
+
+    Seen in T: v_L = v + w_LT_L x p, with w_LT_L = R_LT w_IT_T - w_IL_L (transport theorem).
+    """
+    chaser = scenario.chaser
+    p_L, v_L = np.asarray(chaser.p_LC_L, float), np.asarray(chaser.v_LC_L, float)
+    if chaser.velocity_seen_in == "T":
+        w_IL_L = lvlh_of(*initial_orbit_state(scenario.orbit), scenario.orbit.gravity)[1]
+        w_IT_L = target_rotation_in_lvlh(scenario) @ np.radians(scenario.target.w_IT_T_deg_s)
+        v_L = v_L + np.cross(w_IT_L - w_IL_L, p_L)
+    return p_L, v_L
+
+
 def chaser_rotation_in_lvlh(scenario: Scenario) -> np.ndarray:
     """R_LC at t = 0: from rpy_LC_deg, or with point_at_target the least rotation that puts the
     capture axis on the line of sight (-p_LC_L)."""
@@ -417,7 +436,8 @@ def _validate_work(scenario: Scenario) -> None:
 
 def _validate_actuation(plugin, scenario: Scenario) -> None:
     """The controller's actuation path fits the thrusters (rpod.diagrams.controller_seam)."""
-    thrusters, path, tag = scenario.thrusters, plugin.actuation, f"!{plugin.tag}"
+    thrusters, tag = scenario.thrusters, f"!{plugin.tag}"
+    path = plugin.actuation_for(scenario.controller)
     if path is controller_seam.Actuation.IDEAL:
         return  # straight to the truth; thrusters.isp_s prices the propellant
     _require(
@@ -456,6 +476,11 @@ def validate_scenario(scenario: Scenario) -> None:
     _norm_at_most(_vector(chaser.p_LC_L, "chaser.p_LC_L"), MAX_RANGE_M, "chaser.p_LC_L", "m")
     _norm_at_most(
         _vector(chaser.v_LC_L, "chaser.v_LC_L"), MAX_RELATIVE_SPEED_M_S, "chaser.v_LC_L", "m/s"
+    )
+    _require(
+        chaser.velocity_seen_in in ("L", "T"),
+        "chaser.velocity_seen_in",
+        f"must be 'L' or 'T', got {chaser.velocity_seen_in!r}",
     )
     _vector(chaser.rpy_LC_deg, "chaser.rpy_LC_deg")
     if chaser.point_at_target:

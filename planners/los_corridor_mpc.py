@@ -36,8 +36,6 @@ horizon's own guess; `shift_warm_start`), which cut the p99 per step by ~20% aga
 unshifted warm start (benchmarks/results/los_corridor_mpc.md).
 """
 
-from __future__ import annotations
-
 import dataclasses
 import enum
 import time
@@ -86,6 +84,10 @@ class LosMpcSettings:
         shift_warm_start: start each solve from the previous solution shifted one step (the
             receding horizon's own guess: x_j <- x_{j+1}, u_j <- u_{j+1}, and the duals of
             each block likewise, the last repeated) instead of OSQP's unshifted previous one.
+        check_tolerance_m: an iterate OSQP did not finish (iteration limit, or solved
+            inaccurately) is used when its inputs, clipped to the box and rolled out through
+            the model from x_k, keep every predicted position inside the corridor to within
+            this distance [m] (Sec. 9's 1e-3 m); else the step has no usable input.
     """
 
     horizon: int = 40
@@ -98,6 +100,7 @@ class LosMpcSettings:
     eps_rel: float = 1e-5
     max_iter: int = 4000
     shift_warm_start: bool = True
+    check_tolerance_m: float = 1e-3
 
     def validate(self) -> None:
         """Raises ValueError('field: message') naming the first bad field."""
@@ -109,7 +112,7 @@ class LosMpcSettings:
                 raise ValueError(f"{name}: expected {size} finite non-negative numbers")
         if not np.all(np.asarray(self.R_u_diag) + np.asarray(self.R_du_diag) > 0):
             raise ValueError("R_u_diag: R_u + R_du must be positive definite")
-        for name in ("terminal_factor", "a_max_m_s2", "eps_abs", "eps_rel"):
+        for name in ("terminal_factor", "a_max_m_s2", "eps_abs", "eps_rel", "check_tolerance_m"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name}: must be positive, got {getattr(self, name)}")
 
@@ -120,10 +123,12 @@ class MpcResult:
 
     Attributes:
         status: OSQP's verdict as an MpcStatus.
-        u0: the first input (3) to apply, or None unless solved (accurately or not).
-        u: the inputs (N, 3), x: the predicted states (N + 1, 6) (None unless solved).
+        u0: the first input (3) to apply, or None when the step has no usable input.
+        u: the inputs (N, 3), x: the predicted states (N + 1, 6) (None likewise).
         iterations: OSQP's ADMM iterations.
-        solve_time_s: wall time of the update and solve [s].
+        solve_time_s: wall time of the update, the solve and the check [s].
+        checked: an unfinished iterate passed the rollout check (LosMpcSettings); its x is
+            the rollout, its u the clipped inputs.
     """
 
     status: MpcStatus
@@ -132,10 +137,12 @@ class MpcResult:
     x: np.ndarray | None
     iterations: int
     solve_time_s: float
+    checked: bool = False
 
     @property
     def solved(self) -> bool:
-        return self.status in (MpcStatus.SOLVED, MpcStatus.SOLVED_INACCURATE)
+        """There is an input to apply: OSQP solved, or its iterate passed the check."""
+        return self.status is MpcStatus.SOLVED or self.checked
 
 
 class LosCorridorMpc:
@@ -331,11 +338,30 @@ class LosCorridorMpc:
             self._solver.warm_start(x=self._shifted_primal(), y=self._shifted_dual())
         result = self._solver.solve(raise_error=False)  # a failure is a status, not a raise
         status = _OSQP_STATUS.get(result.info.status, MpcStatus.OTHER)
-        elapsed = time.perf_counter() - start
-        if status not in (MpcStatus.SOLVED, MpcStatus.SOLVED_INACCURATE):
-            return MpcResult(status, None, None, None, int(result.info.iter), elapsed)
-        z = result.x
+        iterations, z = int(result.info.iter), result.x
+        checked = False
+        if status is MpcStatus.SOLVED:
+            x = z[: self._u_offset].reshape(self.N + 1, 6)
+            u_all = z[self._u_offset :].reshape(self.N, 3)
+        elif status in (MpcStatus.MAX_ITERATIONS, MpcStatus.SOLVED_INACCURATE) and np.all(
+            np.isfinite(z)
+        ):
+            u_all, x, checked = self._rollout_check(l[:6], z, A_d, B_d)
+        if status is not MpcStatus.SOLVED and not checked:
+            elapsed = time.perf_counter() - start
+            return MpcResult(status, None, None, None, iterations, elapsed)
         self._last_solution = (z.copy(), result.y.copy())
-        x = z[: self._u_offset].reshape(self.N + 1, 6)
-        u_all = z[self._u_offset :].reshape(self.N, 3)
-        return MpcResult(status, u_all[0].copy(), u_all, x, int(result.info.iter), elapsed)
+        elapsed = time.perf_counter() - start
+        return MpcResult(status, u_all[0].copy(), u_all, x, iterations, elapsed, checked)
+
+    def _rollout_check(self, x_k, z, A_d, B_d) -> tuple[np.ndarray, np.ndarray, bool]:
+        """(u clipped, the rollout x, whether every predicted position j >= 1 is inside the
+        corridor to check_tolerance_m): the independent check of an unfinished iterate."""
+        a_max = self.settings.a_max_m_s2
+        u_all = np.clip(z[self._u_offset :].reshape(self.N, 3), -a_max, a_max)
+        x = np.empty((self.N + 1, 6))
+        x[0] = x_k
+        for j in range(self.N):
+            x[j + 1] = A_d[j] @ x[j] + B_d[j] @ u_all[j]
+        distance = (self._b_c - x[1:, :3] @ self._A_c.T) / np.linalg.norm(self._A_c, axis=1)
+        return u_all, x, bool(np.min(distance) >= -self.settings.check_tolerance_m)

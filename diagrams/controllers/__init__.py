@@ -1,8 +1,9 @@
 """rpod's built-in controller plug-ins (rpod.diagrams.controller_seam); importing registers them.
 
-`!HoldPoint` (hold_point.py, the default) and `!SoftCapture` (soft_capture.py). Other packages
+`!HoldPoint` (hold_point.py, the default), `!SoftCapture` (soft_capture.py) and `!LosCorridor`
+(los_corridor.py, paper 004). Other packages
 add controllers through the entry point group `rpod.controllers`, or by calling
 `rpod.diagrams.controller_seam.register_controller` before loading a scenario.
 """
 
-from rpod.diagrams.controllers import hold_point, soft_capture  # noqa: F401  (registration)
+from rpod.diagrams.controllers import hold_point, los_corridor, soft_capture  # noqa: F401

@@ -29,6 +29,7 @@ from rpod.diagrams.scenario import (
     ScenarioError,
     body_polytopes,
     chaser_rotation_in_lvlh,
+    initial_relative_state_L,
     target_rotation_in_lvlh,
 )
 from rpod.models.frames import quaternion_wxyz, rotation_from_wxyz
@@ -237,11 +238,11 @@ def plan_scenario(scenario, closed_loop: bool = False) -> ScenarioPlan:
     """
     block = controller_config(scenario)
     config = block.planning_config() if closed_loop else block.planner
-    chaser, target = scenario.chaser, scenario.target
+    target = scenario.target
     chaser_hull, target_hull = body_polytopes(scenario)
     if closed_loop:
         chaser_hull, target_hull = block.planning_hulls(chaser_hull, target_hull)
-    x0 = np.concatenate([np.asarray(chaser.p_LC_L, float), np.asarray(chaser.v_LC_L, float)])
+    x0 = np.concatenate(initial_relative_state_L(scenario))
     checked = predict_plan_check(
         SoftCapturePlanner(config, chaser_hull, target_hull),
         x0,

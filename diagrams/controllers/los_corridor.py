@@ -1,0 +1,248 @@
+"""Paper 004's rotating-LOS-corridor guidance as a plug-in: `controller: !LosCorridor {...}`.
+
+Owns: the `LosCorridor` config type (the YAML tag; the fields of
+rpod.systems.los_guidance.LosGuidanceConfig plus the actuation), how the guidance is wired
+(path 3, the ideal acceleration in L with paper 004's box |u_i| <= a_max; or, with
+`actuation: thrusters`, path 1 through rpod.systems.acceleration_to_wrench, the allocator,
+the PWM and the thruster bank), the drawing of the corridor, and the results: the corridor
+violations (how deep, how long), the regimes, the MPC's statuses and fallbacks, and the
+mission outcome.
+Does not own: the guidance (systems/los_guidance.py), the corridor model
+(rpod.models.los_corridor) or the MPC (rpod.planners.los_corridor_mpc).
+
+Mission (paper 004 Sec. 9's classification): success is zero corridor violations beyond
+VIOLATION_TOLERANCE_M (1e-3 m, at every log sample) AND the hold point held at the end (the
+hold regime at the last control step). An infeasible QP is logged and counted; it fails the
+mission only through what it leads to (a violation, or no hold).
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+
+from rpod.diagrams.controller_seam import (
+    Actuation,
+    ControllerPlugin,
+    ControllerResults,
+    ControllerWiring,
+    IdealCommand,
+    MissionOutcome,
+    register_controller,
+)
+from rpod.diagrams.plots_los import VIOLATION_TOLERANCE_M, violation_summary
+from rpod.models.frames import rotations_from_wxyz
+from rpod.models.los_corridor import sync_range_m
+from rpod.planners.los_corridor_mpc import MpcStatus
+from rpod.systems.acceleration_to_wrench import AccelerationToWrench
+from rpod.systems.los_guidance import (
+    MPC_STATUS_CODES,
+    Fallback,
+    LosGuidance,
+    LosGuidanceConfig,
+    Regime,
+)
+from rpod.systems.sensed import SENSED_PORT
+
+ACTUATIONS = ("ideal", "thrusters")
+THRUSTER_PERIOD_S = 0.1  # the PWM period of `actuation: thrusters` (10 Hz, as the hold point)
+
+
+@dataclasses.dataclass
+class LosCorridor(LosGuidanceConfig):
+    """Paper 004's guidance (fields: see LosGuidanceConfig) and how it is flown.
+
+    Args:
+        actuation: 'ideal' (paper 004: an ideal acceleration in L, box-bounded by a_max) or
+            'thrusters' (the scenario's fixed thruster bank through the allocator and PWM at
+            10 Hz, the chaser's attitude held in L).
+        corridor_length_m: how far along +y_T the scene draws the corridor [m].
+    """
+
+    actuation: str = "ideal"
+    corridor_length_m: float = 60.0
+
+    def validate(self) -> None:
+        """Raises ValueError('field: message') naming the first bad field."""
+        super().validate()
+        if self.actuation not in ACTUATIONS:
+            raise ValueError(f"actuation: must be one of {ACTUATIONS}, got {self.actuation!r}")
+        if not (math.isfinite(self.corridor_length_m) and self.corridor_length_m > self.floor_m):
+            raise ValueError(f"corridor_length_m: must be beyond the floor ({self.floor_m} m)")
+
+
+def applied_acceleration_L(log: dict) -> np.ndarray:
+    """The acceleration the truth received, in L: R_LI R_IC f_C / m (N, 3) [m/s^2]."""
+    R_IC = rotations_from_wxyz(log["q_IC"])
+    R_IL = rotations_from_wxyz(log["q_IL"])
+    f_I = np.einsum("nij,nj->ni", R_IC, log["body_wrench"][:, 3:6])
+    return np.einsum("nji,nj->ni", R_IL, f_I) / log["chaser_mass_kg"][:, None]
+
+
+def body_frame_positions(log: dict) -> np.ndarray:
+    """p_TC_T at every sample (N, 3) [m]."""
+    R_IT = rotations_from_wxyz(log["q_IT"])
+    R_IL = rotations_from_wxyz(log["q_IL"])
+    p_I = np.einsum("nij,nj->ni", R_IL, log["p_LC_L"])
+    return np.einsum("nji,nj->ni", R_IT, p_I)
+
+
+class LosCorridorPlugin(ControllerPlugin):
+    """Plug-in of rpod.systems.los_guidance.LosGuidance."""
+
+    config_type = LosCorridor
+    system_name = "los_guidance"
+    actuation = Actuation.IDEAL
+
+    def actuation_for(self, config) -> Actuation:
+        return Actuation.IDEAL if config.actuation == "ideal" else Actuation.BODY_WRENCH
+
+    def validate(self, config, scenario) -> None:
+        super().validate(config, scenario)
+        from rpod.diagrams.scenario import ScenarioError
+
+        if scenario.orbit.gravity in ("cw", "free_space"):
+            raise ScenarioError(
+                "orbit.gravity",
+                f"the LOS guidance linearises an orbit ({scenario.orbit.gravity} has none "
+                "in ECI): use two_body or two_body_j2",
+            )
+        if config.actuation == "thrusters" and not math.isclose(
+            THRUSTER_PERIOD_S * round(config.control_period_s / THRUSTER_PERIOD_S),
+            config.control_period_s,
+        ):
+            raise ScenarioError(
+                "controller.control_period_s",
+                f"with thrusters it must be a multiple of the {THRUSTER_PERIOD_S} s PWM period",
+            )
+
+    def add_to_diagram(self, builder, scenario, sensed) -> ControllerWiring:
+        config = scenario.controller
+        guidance = builder.AddNamedSystem(
+            self.system_name,
+            LosGuidance(config, np.asarray(scenario.target.inertia_kg_m2), scenario.orbit.gravity),
+        )
+        builder.Connect(sensed, guidance.GetInputPort(SENSED_PORT))
+        logged = {
+            "los_command_L": guidance.GetOutputPort("acceleration_command_L"),
+            "los_nominal_L": guidance.GetOutputPort("nominal_command_L"),
+            "los_guidance_status": guidance.GetOutputPort("guidance_status"),
+            "hold_point_L": guidance.GetOutputPort("hold_point_L"),
+            "los_face_distance_m": guidance.GetOutputPort("face_distance_m"),
+        }
+        command = guidance.GetOutputPort("acceleration_command_L")
+        if config.actuation == "ideal":
+            ideal = IdealCommand("acceleration", "L", "box", config.a_max_m_s2)
+            return ControllerWiring(
+                guidance, Actuation.IDEAL, command, config.control_period_s, logged, ideal
+            )
+        adapter = builder.AddNamedSystem(
+            "acceleration_to_wrench",
+            AccelerationToWrench(
+                scenario.chaser.mass_kg,
+                np.asarray(scenario.chaser.inertia_kg_m2),
+                THRUSTER_PERIOD_S,
+            ),
+        )
+        builder.Connect(command, adapter.GetInputPort("acceleration_command_L"))
+        builder.Connect(sensed, adapter.GetInputPort(SENSED_PORT))
+        wrench = adapter.GetOutputPort("body_wrench_desired")
+        logged["body_wrench_desired"] = wrench
+        return ControllerWiring(guidance, Actuation.BODY_WRENCH, wrench, THRUSTER_PERIOD_S, logged)
+
+    def add_scene_extras(self, builder, meshcat, scenario, wiring, scene=None) -> None:
+        if scene is None:
+            return
+        from rpod.systems.los_corridor_scene import add_los_corridor_to_scene  # only when drawing
+
+        guidance = wiring.system
+        add_los_corridor_to_scene(
+            scene, guidance.corridor, scenario.controller.corridor_length_m, guidance.p_TH_T
+        )
+
+    def results(self, scenario, wiring, context, log) -> ControllerResults:
+        config = scenario.controller
+        status = log.pop("los_guidance_status")
+        n = len(log["t"])
+        log["los_regime"] = status[:, 0].astype(np.int64)
+        log["los_mpc_status"] = status[:, 1].astype(np.int64)
+        log["los_fallback"] = status[:, 2].astype(np.int64)
+        log["los_mpc_iterations"] = status[:, 3].astype(np.int64)
+        log["los_mpc_solve_time_s"] = status[:, 4]
+        p_T = body_frame_positions(log)
+        log["los_range_m"] = np.linalg.norm(p_T, axis=1)
+        omega = float(np.linalg.norm(np.radians(scenario.target.w_IT_T_deg_s)))
+        r_sync = sync_range_m(config.a_max_m_s2, omega) if omega > 0 else math.inf
+        log["los_sync_range_m"] = np.full(n, r_sync)
+        log["los_hold_point_T"] = np.tile(wiring.system.p_TH_T, (n, 1))
+        log["los_a_max_m_s2"] = np.full(n, config.a_max_m_s2)
+        log["los_half_angle_deg"] = np.full(n, config.half_angle_deg)
+        log["los_applied_L"] = applied_acceleration_L(log)
+
+        depth, duration, first = violation_summary(
+            log["t"], log["los_face_distance_m"], VIOLATION_TOLERANCE_M
+        )
+        solved = [MPC_STATUS_CODES[s] for s in (MpcStatus.SOLVED, MpcStatus.SOLVED_INACCURATE)]
+        # One sample per control step: the samples at k period_s hold step k - 1's status
+        # (the t = 0 sample holds the initial -1s, left out of the counts).
+        steps = _control_step_samples(log["t"], config.control_period_s)
+        steps = steps[log["los_regime"][steps] >= 0]
+        codes = log["los_mpc_status"][steps]
+        failed = int(np.count_nonzero((codes >= 0) & ~np.isin(codes, solved)))
+        fallbacks = log["los_fallback"][steps]
+        hold_distance = float(np.linalg.norm(p_T[-1] - wiring.system.p_TH_T))
+        held = bool(log["los_regime"][-1] == Regime.HOLD)
+        in_hold = np.flatnonzero(log["los_regime"] == Regime.HOLD)
+        min_distance = float(np.nanmin(log["los_face_distance_m"]))
+        summary = {
+            "los_sync_range_m": r_sync,
+            "los_start_inside_sync_range": bool(log["los_range_m"][0] <= r_sync),
+            "los_violation": depth > 0,
+            "los_violation_depth_m": depth,
+            "los_violation_duration_s": duration,
+            "los_first_violation_s": first,
+            "los_min_face_distance_m": min_distance,
+            "los_min_range_m": float(np.min(log["los_range_m"])),
+            "los_held": held,
+            "los_hold_reached_s": float(log["t"][in_hold[0]]) if len(in_hold) else None,
+            "los_final_hold_error_m": hold_distance,
+            "los_qp_failures": failed,
+            "los_fallback_previous_plan": int(
+                np.count_nonzero(fallbacks == Fallback.PREVIOUS_PLAN)
+            ),
+            "los_fallback_brake": int(np.count_nonzero(fallbacks == Fallback.BRAKE)),
+            "los_fallback_far_command": int(np.count_nonzero(fallbacks == Fallback.NOMINAL)),
+            "los_regime_steps": {
+                regime.name.lower(): int(np.count_nonzero(log["los_regime"][steps] == regime))
+                for regime in Regime
+            },
+            "los_mpc_solve_ms_median": float(1e3 * np.median(log["los_mpc_solve_time_s"][steps])),
+            "los_mpc_solve_ms_max": float(1e3 * np.max(log["los_mpc_solve_time_s"][steps])),
+        }
+        success = depth == 0.0 and held
+        if success:
+            text = (
+                f"held at {config.hold_distance_m:g} m on the corridor axis from "
+                f"{summary['los_hold_reached_s']:.0f} s, zero corridor violations (least margin "
+                f"{min_distance:.2f} m), {failed} failed QPs"
+            )
+        else:
+            parts = []
+            if depth > 0:
+                parts.append(
+                    f"corridor violated {depth:.3f} m deep for {duration:.1f} s from {first:.1f} s"
+                )
+            if not held:
+                parts.append(f"not holding at the end ({hold_distance:.1f} m from the hold point)")
+            text = "; ".join(parts) + f"; {failed} failed QPs"
+        return ControllerResults(summary=summary, outcome=MissionOutcome(success, text))
+
+
+def _control_step_samples(t: np.ndarray, period_s: float) -> np.ndarray:
+    """The indices of the log samples nearest each control step k period_s (unique)."""
+    steps = np.arange(0.0, t[-1] + 0.5 * period_s, period_s)
+    index = np.clip(np.searchsorted(t, steps - 1e-9), 0, len(t) - 1)
+    return np.unique(index)
+
+
+register_controller(LosCorridorPlugin())

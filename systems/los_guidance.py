@@ -1,0 +1,413 @@
+"""Paper 004's rotating-LOS-corridor guidance (Sec. 7): three regimes and an MPC safety filter.
+
+Owns: `LosGuidanceConfig` and `LosGuidance`, a LeafSystem sampled at 1 Hz (the paper's control
+step) that reads the sensed bundle and outputs the chaser's acceleration command in L (the
+ideal-acceleration path, paper 004's setting; a box |u_i| <= a_max, eq. 11e), and the regime
+laws as plain functions (`regime`, `nominal_command_L`, `brake_command_L`).
+Does not own: the corridor (rpod.models.los_corridor), the QP (rpod.planners.los_corridor_mpc),
+the prediction model (rpod.planners.los_prediction) or the actuation.
+
+The regimes (paper 004 Sec. 7; r = |p_TC_T|, r_sync = 2 a_max / omega_t^2, eq. 14):
+- far approach, r > r_sync: a PD in L on a spiral reference: the corridor axis in L times a
+  range rho_ref that shrinks at v_achv = min(a_max t / 2, v_max), so the reference turns with
+  the target while it closes in; the commanded velocity in L is capped at v_achv;
+- close approach, r <= r_sync: a PD in the body frame T toward the hold point H, its approach
+  speed limited to min(v_max, sqrt(a_max d)) at a distance d from H (a stop at a_max / 2);
+- hold, within `hold_tolerance_m` of H and slower than `hold_speed_m_s` (left again beyond
+  twice the tolerance): the same body-frame PD without the speed limit.
+Every regime cancels the CW terms (the feed-forward of eq. 12) and, in T, the apparent
+accelerations of the turning frame, so a body-frame PD is a PD on the body-frame error:
+
+    u_L = R_LT (a_T + 2 w x v_T + w x (w x p_T)) - a_CW(p_L, v_L),   w = w_LT_T,
+
+with v_T = R_TL v_L - w x p_T (eq. 8 written from L). The hold point (the paper leaves it
+open) is H = hold_distance_m (default 10 m) along +y_T, on the corridor's axis; v_max (also
+open) defaults to 1 m/s.
+
+The MPC (eq. 11, rpod.planners.los_corridor_mpc) filters the regime's command u_nom: it tracks
+x_ref = [p_ref_T, 0] (H, or the spiral reference far out) in the body frame under the corridor
+at every predicted step and the input box, its input weight centred on u_nom, and only u_0 is
+applied. The prediction model is the exact Jacobian of the one-step map of Sec. 4.4
+(`prediction: online`), or CW's exact STM and ZOH input matrix carried into T (`cw`), one pair
+for the horizon or, for a tumble that changes the body-frame dynamics (`time_varying_model`),
+one per predicted step along the predicted attitude. When the QP fails (infeasible, not
+converged), the status is kept and the fallback is applied: the previous plan's next input while
+it lasts, else braking to zero body-frame velocity within the box (eq. 11e). Beyond r_sync no
+input can stop the chaser in T (that is what eq. 14 says: the centripetal omega_t^2 r alone
+exceeds a_max / 2 r_sync / r), and there the QP is infeasible by construction; so in the far
+regime the last fallback is the far approach's own command (clipped to the box), which brings
+the chaser in, not the brake, which would push it out on a spiral. `filter: false` flies the
+regime's command alone (the comparison of what the filter buys).
+"""
+
+import dataclasses
+import enum
+import math
+
+import numpy as np
+from pydrake.common.value import Value
+from pydrake.systems.framework import LeafSystem
+
+from rpod.models.cw import cw_acceleration
+from rpod.models.frames import rotation_from_wxyz
+from rpod.models.los_corridor import LosCorridor, sync_range_m
+from rpod.planners.los_corridor_mpc import LosCorridorMpc, LosMpcSettings, MpcStatus
+from rpod.planners.los_prediction import BodyFrameStep, TargetState, cw_body_frame_matrices
+from rpod.systems.sensed import Sensed, declare_sensed_input
+
+
+class Regime(enum.IntEnum):
+    """Paper 004 Sec. 7's regimes (the integer is what the log holds)."""
+
+    FAR = 0
+    CLOSE = 1
+    HOLD = 2
+
+
+class Fallback(enum.IntEnum):
+    """What was applied (the integer is what the log holds)."""
+
+    NONE = 0  # the MPC's u_0 (or the regime's command with filter: false)
+    PREVIOUS_PLAN = 1  # the previous plan's next input
+    BRAKE = 2  # braking to zero body-frame velocity
+    NOMINAL = 3  # far out: the far approach's own command (braking is impossible there)
+
+
+# MpcStatus -> the integer the log holds (-1: no solve this step).
+MPC_STATUS_CODES = {status: index for index, status in enumerate(MpcStatus)}
+PREDICTIONS = ("online", "cw")
+
+
+@dataclasses.dataclass
+class LosGuidanceConfig:
+    """Paper 004's guidance (module docstring); defaults: Sec. 6's single-scenario set-up.
+
+    Args:
+        control_period_s: the control step (Table 1: 1 s).
+        a_max_m_s2: the input bound per axis in L (11e), also in r_sync (eq. 14).
+        hold_distance_m: the hold point H along +y_T [m] (the paper leaves it open).
+        v_max_m_s: the approach speed limit [m/s] (open in the paper).
+        bandwidth_rad_s: the PD's natural frequency.
+        damping: the PD's damping ratio.
+        hold_tolerance_m: epsilon of the hold regime [m].
+        hold_speed_m_s: v_switch of the hold regime [m/s].
+        half_angle_deg: the corridor's half-angle alpha_c (Table 1: 30 deg).
+        faces: the corridor's n_f (Table 1: 8).
+        floor_m: the corridor's floor y_min (Table 1: 1 m).
+        filter: False applies the regime's command without the MPC.
+        prediction: the MPC's model: 'online' (exact Jacobian of the Sec. 4.4 step) or 'cw'.
+        time_varying_model: one model per predicted step along the predicted attitude.
+        substeps: RK4 steps per control step of the online model.
+        mpc: horizon, weights and tolerances of eq. 11 (its a_max_m_s2 is a_max_m_s2 above:
+            leave it out).
+    """
+
+    control_period_s: float = 1.0
+    a_max_m_s2: float = 0.10
+    hold_distance_m: float = 10.0
+    v_max_m_s: float = 1.0
+    bandwidth_rad_s: float = 0.2
+    damping: float = 1.0
+    hold_tolerance_m: float = 1.0
+    hold_speed_m_s: float = 0.05
+    half_angle_deg: float = 30.0
+    faces: int = 8
+    floor_m: float = 1.0
+    filter: bool = True
+    prediction: str = "online"
+    time_varying_model: bool = False
+    substeps: int = 2
+    mpc: LosMpcSettings = dataclasses.field(default_factory=LosMpcSettings)
+
+    def corridor(self) -> LosCorridor:
+        """The corridor these fields describe."""
+        return LosCorridor(math.radians(self.half_angle_deg), int(self.faces), self.floor_m)
+
+    def mpc_settings(self) -> LosMpcSettings:
+        """The MPC's settings with this config's a_max."""
+        return dataclasses.replace(self.mpc, a_max_m_s2=self.a_max_m_s2)
+
+    def validate(self) -> None:
+        """Raises ValueError('field: message') naming the first bad field."""
+        for name in (
+            "control_period_s",
+            "a_max_m_s2",
+            "v_max_m_s",
+            "bandwidth_rad_s",
+            "damping",
+            "hold_tolerance_m",
+            "hold_speed_m_s",
+        ):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"{name}: must be positive, got {value}")
+        if not 0.0 < self.half_angle_deg < 90.0:
+            raise ValueError(f"half_angle_deg: must be in (0, 90), got {self.half_angle_deg}")
+        if int(self.faces) != self.faces or self.faces < 3:
+            raise ValueError(f"faces: must be an integer >= 3, got {self.faces}")
+        if not (math.isfinite(self.floor_m) and self.floor_m >= 0.0):
+            raise ValueError(f"floor_m: must not be negative, got {self.floor_m}")
+        if not (math.isfinite(self.hold_distance_m) and self.hold_distance_m > self.floor_m):
+            raise ValueError(
+                f"hold_distance_m: must be beyond the floor ({self.floor_m} m), "
+                f"got {self.hold_distance_m}"
+            )
+        if self.prediction not in PREDICTIONS:
+            raise ValueError(f"prediction: must be one of {PREDICTIONS}, got {self.prediction!r}")
+        if int(self.substeps) != self.substeps or not 1 <= self.substeps <= 100:
+            raise ValueError(f"substeps: must be an integer in [1, 100], got {self.substeps}")
+        default_bound = LosMpcSettings().a_max_m_s2
+        if self.mpc.a_max_m_s2 not in (default_bound, self.a_max_m_s2):
+            raise ValueError("mpc.a_max_m_s2: the bound is a_max_m_s2; leave this one out")
+        try:
+            self.mpc_settings().validate()
+        except ValueError as error:
+            raise ValueError(f"mpc.{error}") from None
+
+
+@dataclasses.dataclass(frozen=True)
+class BodyFrameView:
+    """The relative state seen from the target, and the frames it needs (one sample).
+
+    Attributes:
+        p_T, v_T: the chaser in T, its velocity seen in T (eqs. 7-8) [m, m/s].
+        p_L, v_L: the chaser in L, its velocity seen in L [m, m/s].
+        R_LT: the target's attitude in L.
+        w_LT_T: the target's rate relative to L, in T [rad/s].
+        n: the orbital rate (w_IL_L's z) [rad/s].
+    """
+
+    p_T: np.ndarray
+    v_T: np.ndarray
+    p_L: np.ndarray
+    v_L: np.ndarray
+    R_LT: np.ndarray
+    w_LT_T: np.ndarray
+    n: float
+
+    @classmethod
+    def from_sensed(cls, sensed: Sensed) -> "BodyFrameView":
+        """From one sample of the sensed bundle."""
+        R_IL = rotation_from_wxyz(sensed.q_IL)
+        R_IT = rotation_from_wxyz(sensed.q_IT)
+        R_LT = R_IL.T @ R_IT
+        w_IL_L = np.asarray(sensed.w_IL_L, dtype=float)
+        w_LT_T = np.asarray(sensed.w_IT_T, dtype=float) - R_LT.T @ w_IL_L
+        p_L = np.array(sensed.p_LC_L, dtype=float)
+        v_L = np.array(sensed.v_LC_L, dtype=float)
+        p_T = R_LT.T @ p_L
+        v_T = R_LT.T @ v_L - np.cross(w_LT_T, p_T)
+        return cls(p_T, v_T, p_L, v_L, R_LT, w_LT_T, float(w_IL_L[2]))
+
+    def command_L(self, a_T: np.ndarray) -> np.ndarray:
+        """u_L that gives the body-frame acceleration a_T (module docstring)."""
+        w = self.w_LT_T
+        apparent = 2.0 * np.cross(w, self.v_T) + np.cross(w, np.cross(w, self.p_T))
+        return self.R_LT @ (a_T + apparent) - cw_acceleration(self.n, self.p_L, self.v_L)
+
+
+def regime(view: BodyFrameView, p_TH_T, r_sync: float, holding: bool, config) -> Regime:
+    """The regime of Sec. 7 at this sample; `holding`: the previous sample's was HOLD."""
+    distance = float(np.linalg.norm(view.p_T - p_TH_T))
+    speed = float(np.linalg.norm(view.v_T))
+    if holding and distance <= 2.0 * config.hold_tolerance_m:
+        return Regime.HOLD
+    if distance <= config.hold_tolerance_m and speed < config.hold_speed_m_s:
+        return Regime.HOLD
+    return Regime.CLOSE if np.linalg.norm(view.p_T) <= r_sync else Regime.FAR
+
+
+def _saturate(v: np.ndarray, limit: float) -> np.ndarray:
+    norm = float(np.linalg.norm(v))
+    return v if norm <= limit else v * (limit / norm)
+
+
+def nominal_command_L(
+    view: BodyFrameView, mode: Regime, p_ref_T: np.ndarray, speed_limit: float, config
+) -> np.ndarray:
+    """The regime's PD command in L (module docstring), before the MPC and the box.
+
+    FAR: the reference p_ref_T (on the corridor axis at the spiral's range) is tracked in L,
+    the correction speed within speed_limit (v_achv). CLOSE: toward p_ref_T = H in T at most
+    min(speed_limit, sqrt(a_max d)). HOLD: toward H without a speed limit.
+    """
+    w_n, zeta = config.bandwidth_rad_s, config.damping
+    error_T = p_ref_T - view.p_T
+    if mode is Regime.FAR:
+        # In L: the reference turns with the target (v_ref = w x p_ref, seen from L), and the
+        # whole commanded velocity is capped at v_achv: beyond r_sync the turning reference
+        # cannot be followed, so the law closes in at the cap instead of chasing it round.
+        w_L = view.R_LT @ view.w_LT_T
+        p_ref_L = view.R_LT @ p_ref_T
+        v_ref_L = np.cross(w_L, p_ref_L)
+        v_des = _saturate(v_ref_L + w_n / (2 * zeta) * (p_ref_L - view.p_L), speed_limit)
+        return 2 * zeta * w_n * (v_des - view.v_L) - cw_acceleration(view.n, view.p_L, view.v_L)
+    v_des_T = w_n / (2 * zeta) * error_T
+    if mode is Regime.CLOSE:
+        distance = float(np.linalg.norm(error_T))
+        v_des_T = _saturate(v_des_T, min(speed_limit, math.sqrt(config.a_max_m_s2 * distance)))
+    return view.command_L(2 * zeta * w_n * (v_des_T - view.v_T))
+
+
+def brake_command_L(view: BodyFrameView, dt: float, a_max: float) -> np.ndarray:
+    """The fallback's brake: toward zero body-frame velocity within one step, in the box."""
+    return np.clip(view.command_L(-view.v_T / dt), -a_max, a_max)
+
+
+def _target_state(sensed: Sensed) -> TargetState:
+    orbit = np.asarray(sensed.target_state_I, dtype=float)
+    return TargetState(
+        orbit[:3].copy(),
+        orbit[3:].copy(),
+        rotation_from_wxyz(sensed.q_IT),
+        np.array(sensed.w_IT_T, dtype=float),
+    )
+
+
+class LosGuidance(LeafSystem):
+    """Paper 004's guidance, sampled (module docstring); outputs held between samples.
+
+    Input port: sensed (33, rpod.systems.sensed).
+    Output ports:
+        acceleration_command_L (3): the applied command u_0 (or the fallback) [m/s^2].
+        nominal_command_L (3): the regime's command before the MPC [m/s^2].
+        guidance_status (5): [regime, MPC status code (-1: none), fallback, OSQP iterations,
+            solve time s] of the last sample (regime -1 before the first).
+        hold_point_L (3): H in L now [m] (from the sensed attitude; no state).
+        face_distance_m (n_f + 1): the chaser's signed distance to each corridor plane,
+            positive inside (faces, then the floor) [m] (from the sensed state; no state).
+    """
+
+    def __init__(self, config: LosGuidanceConfig, inertia_T: np.ndarray, gravity: str):
+        super().__init__()
+        config.validate()
+        self.config = config
+        self.corridor = config.corridor()
+        self.p_TH_T = np.array([0.0, config.hold_distance_m, 0.0])
+        A_c = self.corridor.A_c
+        self._row_norms = np.linalg.norm(A_c, axis=1)
+        self._mpc = (
+            LosCorridorMpc(config.mpc_settings(), A_c, self.corridor.b_c) if config.filter else None
+        )
+        self._step = BodyFrameStep(
+            config.control_period_s, gravity, np.asarray(inertia_T, float), int(config.substeps)
+        )
+        self._sensed_port = declare_sensed_input(self)
+        # Held outputs [command (3), nominal (3), status (5)]; memory [u_prev (3), rho_ref,
+        # holding, plan age]; the last successful plan's inputs (abstract).
+        self._held = self.DeclareDiscreteState(np.r_[np.zeros(6), -1, -1, 0, 0, 0])
+        self._memory = self.DeclareDiscreteState(np.array([0, 0, 0, np.nan, 0, 0], dtype=float))
+        self._plan = self.DeclareAbstractState(Value(np.zeros((0, 3))))
+        self.DeclarePeriodicUnrestrictedUpdateEvent(config.control_period_s, 0.0, self._update)
+        held = {self.discrete_state_ticket(self._held)}
+        self.DeclareVectorOutputPort(
+            "acceleration_command_L",
+            3,
+            lambda c, o: o.SetFromVector(self._held_value(c)[0:3]),
+            held,
+        )
+        self.DeclareVectorOutputPort(
+            "nominal_command_L", 3, lambda c, o: o.SetFromVector(self._held_value(c)[3:6]), held
+        )
+        self.DeclareVectorOutputPort(
+            "guidance_status", 5, lambda c, o: o.SetFromVector(self._held_value(c)[6:11]), held
+        )
+        sensed = {self.input_port_ticket(self._sensed_port.get_index())}
+        self.DeclareVectorOutputPort("hold_point_L", 3, self._calc_hold_point, sensed)
+        self.DeclareVectorOutputPort(
+            "face_distance_m", len(self.corridor.b_c), self._calc_face_distance, sensed
+        )
+
+    def _held_value(self, context) -> np.ndarray:
+        return context.get_discrete_state(self._held).get_value()
+
+    def _view(self, context) -> BodyFrameView:
+        return BodyFrameView.from_sensed(Sensed.from_vector(self._sensed_port.Eval(context)))
+
+    def _calc_hold_point(self, context, output) -> None:
+        output.SetFromVector(self._view(context).R_LT @ self.p_TH_T)
+
+    def _calc_face_distance(self, context, output) -> None:
+        output.SetFromVector(self.corridor.slack(self._view(context).p_T) / self._row_norms)
+
+    def _model(self, sensed: Sensed, x_T: np.ndarray):
+        """(A_d, B_d) of the prediction (module docstring)."""
+        target = _target_state(sensed)
+        if self.config.prediction == "cw":
+            n = float(sensed.w_IL_L[2])
+            dt = self.config.control_period_s
+            return cw_body_frame_matrices(n, dt, target, self._step.target_next(target))
+        if self.config.time_varying_model:
+            return self._step.horizon(target, x_T, self._mpc.N)
+        return self._step.jacobian(target, x_T)
+
+    def _approach_reference(self, view: BodyFrameView, speed_limit: float) -> np.ndarray:
+        """The close approach's x_ref in T: a point on the way to H at most half a horizon of
+        travel ahead, moving toward H at the regime's speed limit (module docstring)."""
+        config = self.config
+        error = self.p_TH_T - view.p_T
+        distance = float(np.linalg.norm(error))
+        if distance < 1e-9:
+            return np.concatenate([self.p_TH_T, np.zeros(3)])
+        speed = min(speed_limit, config.v_max_m_s, math.sqrt(config.a_max_m_s2 * distance))
+        ahead = min(distance, speed * 0.5 * self.config.mpc.horizon * config.control_period_s)
+        direction = error / distance
+        return np.concatenate([view.p_T + ahead * direction, speed * direction])
+
+    def _update(self, context, state) -> None:
+        config, t = self.config, context.get_time()
+        sensed = Sensed.from_vector(self._sensed_port.Eval(context))
+        view = BodyFrameView.from_sensed(sensed)
+        memory = context.get_discrete_state(self._memory).get_value().copy()
+        u_prev, rho_ref, holding, plan_age = memory[0:3], memory[3], memory[4] > 0, memory[5]
+        omega = float(np.linalg.norm(sensed.w_IT_T))  # the tumble rate omega_t (eq. 14)
+        r_sync = sync_range_m(config.a_max_m_s2, omega) if omega > 0 else math.inf
+        mode = regime(view, self.p_TH_T, r_sync, holding, config)
+
+        # The reference: H, or far out the spiral's point on the corridor axis.
+        v_achv = min(config.a_max_m_s2 * t / 2.0, config.v_max_m_s)
+        if not np.isfinite(rho_ref):
+            rho_ref = float(np.linalg.norm(view.p_T))
+        v_ref_T = np.zeros(3)
+        if mode is Regime.FAR:
+            rho_ref = max(rho_ref - v_achv * config.control_period_s, config.hold_distance_m)
+            p_ref_T = np.array([0.0, rho_ref, 0.0])
+            x_ref = np.concatenate([p_ref_T, v_ref_T])
+        else:
+            p_ref_T = self.p_TH_T
+            x_ref = np.concatenate([p_ref_T, v_ref_T])
+            if mode is Regime.CLOSE:
+                x_ref = self._approach_reference(view, max(v_achv, 1e-3))
+        u_nom = nominal_command_L(view, mode, p_ref_T, max(v_achv, 1e-3), config)
+
+        status_code, iterations, solve_time, fallback = -1, 0, 0.0, Fallback.NONE
+        plan = context.get_abstract_state(self._plan).get_value()
+        if self._mpc is None:
+            command = np.clip(u_nom, -config.a_max_m_s2, config.a_max_m_s2)
+        else:
+            x_T = np.concatenate([view.p_T, view.v_T])
+            A_d, B_d = self._model(sensed, x_T)
+            result = self._mpc.solve(x_T, x_ref, u_prev, A_d, B_d, u_nom=u_nom)
+            status_code = MPC_STATUS_CODES[result.status]
+            iterations, solve_time = result.iterations, result.solve_time_s
+            if result.solved:
+                command, plan, plan_age = result.u0, result.u, 0
+            elif plan_age + 1 < len(plan):
+                plan_age += 1
+                command, fallback = plan[int(plan_age)], Fallback.PREVIOUS_PLAN
+            elif mode is Regime.FAR:
+                command = np.clip(u_nom, -config.a_max_m_s2, config.a_max_m_s2)
+                fallback = Fallback.NOMINAL
+            else:
+                command = brake_command_L(view, config.control_period_s, config.a_max_m_s2)
+                fallback = Fallback.BRAKE
+        command = np.asarray(command, dtype=float)
+        state.get_mutable_discrete_state(self._held).set_value(
+            np.concatenate(
+                [command, u_nom, [int(mode), status_code, int(fallback), iterations, solve_time]]
+            )
+        )
+        state.get_mutable_discrete_state(self._memory).set_value(
+            np.concatenate([command, [rho_ref, float(mode is Regime.HOLD), plan_age]])
+        )
+        state.get_mutable_abstract_state(self._plan).set_value(plan)

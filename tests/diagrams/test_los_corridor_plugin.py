@@ -1,0 +1,69 @@
+"""The `!LosCorridor` plug-in: its fields are checked by name, its actuation follows the config,
+and a start given at rest in the target frame is at rest there (eq. 8)."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from rpod.diagrams.controller_seam import Actuation, plugin_for
+from rpod.diagrams.controllers.los_corridor import LosCorridor
+from rpod.diagrams.scenario import ScenarioError, initial_relative_state_L, validate_scenario
+from rpod.models.frames import rotation_from_rpy_deg
+from rpod.scenarios.loader import load_scenario
+
+
+def _scenario(**controller):
+    scenario = load_scenario("los_corridor")[1]
+    scenario.controller = dataclasses.replace(scenario.controller, **controller)
+    return scenario
+
+
+@pytest.mark.parametrize(
+    "change, field",
+    [
+        ({"prediction": "exact"}, "controller.prediction"),
+        ({"a_max_m_s2": 0.0}, "controller.a_max_m_s2"),
+        ({"hold_distance_m": 0.5}, "controller.hold_distance_m"),  # below the 1 m floor
+        ({"actuation": "rockets"}, "controller.actuation"),
+        ({"faces": 2}, "controller.faces"),
+    ],
+)
+def test_bad_fields_are_named(change, field):
+    with pytest.raises(ScenarioError, match=field.replace(".", r"\.")):
+        validate_scenario(_scenario(**change))
+
+
+def test_a_second_bound_in_the_mpc_block_is_refused():
+    scenario = _scenario()
+    scenario.controller.mpc.a_max_m_s2 = 0.3
+    with pytest.raises(ScenarioError, match=r"controller\.mpc\.a_max_m_s2"):
+        validate_scenario(scenario)
+
+
+def test_the_linearisation_needs_an_orbit():
+    scenario = _scenario()
+    scenario.orbit.gravity = "cw"
+    with pytest.raises(ScenarioError, match=r"orbit\.gravity"):
+        validate_scenario(scenario)
+
+
+def test_actuation_follows_the_config():
+    plugin = plugin_for(LosCorridor())
+    assert plugin.actuation_for(LosCorridor()) is Actuation.IDEAL
+    assert plugin.actuation_for(LosCorridor(actuation="thrusters")) is Actuation.BODY_WRENCH
+
+
+def test_a_start_seen_in_T_is_at_rest_in_the_turning_target_frame():
+    scenario = load_scenario("los_corridor")[1]
+    scenario.target.rpy_LT_deg = [10.0, -20.0, 35.0]
+    p_L, v_L = initial_relative_state_L(scenario)
+    from rpod.systems.orbital_dynamics import initial_orbit_state, lvlh_of
+
+    w_IL_L = lvlh_of(*initial_orbit_state(scenario.orbit), scenario.orbit.gravity)[1]
+    R_LT = rotation_from_rpy_deg(scenario.target.rpy_LT_deg)
+    w_LT_L = R_LT @ np.radians(scenario.target.w_IT_T_deg_s) - w_IL_L
+    # Seen in T (transport theorem from L): v_L - w_LT x p_L = 0.
+    np.testing.assert_allclose(v_L - np.cross(w_LT_L, p_L), 0.0, atol=1e-15)
+    scenario.chaser.velocity_seen_in = "L"
+    np.testing.assert_array_equal(initial_relative_state_L(scenario)[1], 0.0)
