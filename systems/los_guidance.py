@@ -25,9 +25,12 @@ open) is H = hold_distance_m (default 10 m) along +y_T, on the corridor's axis; 
 open) defaults to 1 m/s.
 
 The MPC (eq. 11, rpod.planners.los_corridor_mpc) filters the regime's command u_nom: it tracks
-x_ref = [p_ref_T, 0] (H, or the spiral reference far out) in the body frame under the corridor
-at every predicted step and the input box, its input weight centred on u_nom, and only u_0 is
-applied. The prediction model is the exact Jacobian of the one-step map of Sec. 4.4
+x_ref in the body frame under the corridor at every predicted step and the input box, its input
+weight centred on u_nom, and only u_0 is applied. x_ref is [H, 0] in the hold, the spiral's
+point at rest far out, and on the close approach a point reference_lead_s of travel ahead on the
+way to H, moving as the PD would move it (the paper tracks H itself: from 100 m its Q = 15-30
+against the rate penalty made the MPC rush at twice v_max and brake on the box, and those QPs
+took OSQP ten times the iterations). The prediction model is the exact Jacobian of the one-step map of Sec. 4.4
 (`prediction: online`), or CW's exact STM and ZOH input matrix carried into T (`cw`), one pair
 for the horizon or, for a tumble that changes the body-frame dynamics (`time_varying_model`),
 one per predicted step along the predicted attitude. When the QP fails (infeasible, not
@@ -91,6 +94,9 @@ class LosGuidanceConfig:
         damping: the PD's damping ratio.
         hold_tolerance_m: epsilon of the hold regime [m].
         hold_speed_m_s: v_switch of the hold regime [m/s].
+        reference_lead_s: how far ahead of the chaser the close approach's reference point
+            runs, in seconds of travel at the speed limit (10 s: the MPC then closes in near
+            the limit; half a 40 s horizon made it rush at twice v_max and brake hard).
         half_angle_deg: the corridor's half-angle alpha_c (Table 1: 30 deg).
         faces: the corridor's n_f (Table 1: 8).
         floor_m: the corridor's floor y_min (Table 1: 1 m).
@@ -110,6 +116,7 @@ class LosGuidanceConfig:
     damping: float = 1.0
     hold_tolerance_m: float = 1.0
     hold_speed_m_s: float = 0.05
+    reference_lead_s: float = 10.0
     half_angle_deg: float = 30.0
     faces: int = 8
     floor_m: float = 1.0
@@ -137,6 +144,7 @@ class LosGuidanceConfig:
             "damping",
             "hold_tolerance_m",
             "hold_speed_m_s",
+            "reference_lead_s",
         ):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
@@ -342,17 +350,21 @@ class LosGuidance(LeafSystem):
         return self._step.jacobian(target, x_T)
 
     def _approach_reference(self, view: BodyFrameView, speed_limit: float) -> np.ndarray:
-        """The close approach's x_ref in T: a point on the way to H at most half a horizon of
-        travel ahead, moving toward H at the regime's speed limit (module docstring)."""
+        """The close approach's x_ref in T: a point on the way to H at most reference_lead_s of
+        travel ahead, moving toward H as the PD would move it (module docstring)."""
         config = self.config
         error = self.p_TH_T - view.p_T
         distance = float(np.linalg.norm(error))
         if distance < 1e-9:
             return np.concatenate([self.p_TH_T, np.zeros(3)])
         speed = min(speed_limit, config.v_max_m_s, math.sqrt(config.a_max_m_s2 * distance))
-        ahead = min(distance, speed * 0.5 * self.config.mpc.horizon * config.control_period_s)
+        ahead = min(distance, speed * config.reference_lead_s)
         direction = error / distance
-        return np.concatenate([view.p_T + ahead * direction, speed * direction])
+        # The reference point moves as the PD would move it there: at the speed limit far
+        # from H, slowing to rest as it reaches H (no velocity asked for at H itself).
+        gain = config.bandwidth_rad_s / (2 * config.damping)
+        v_ref = _saturate(gain * (distance - ahead) * direction, speed)
+        return np.concatenate([view.p_T + ahead * direction, v_ref])
 
     def _update(self, context, state) -> None:
         config, t = self.config, context.get_time()

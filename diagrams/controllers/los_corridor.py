@@ -160,6 +160,18 @@ class LosCorridorPlugin(ControllerPlugin):
             scene, guidance.corridor, scenario.controller.corridor_length_m, guidance.p_TH_T
         )
 
+    def campaign_table(self, rows):
+        """Paper 004 Table 3 beside a campaign of LOS-corridor runs (table3_rows)."""
+        table = table3_rows(rows)
+        if not table:
+            return None
+        title = (
+            "Paper 004 Table 3 beside this campaign (ours: r_sync exact, eq. 14; each start's "
+            "outcome over the run; paper: r_sync / Hold / r_min as printed):"
+        )
+        header = ["omega_t deg/s", "a_max m/s^2", "r_sync m", "start inside", "start outside"]
+        return title, [*header, "paper 004"], table
+
     def results(self, scenario, wiring, context, log) -> ControllerResults:
         config = scenario.controller
         status = log.pop("los_guidance_status")
@@ -236,6 +248,69 @@ class LosCorridorPlugin(ControllerPlugin):
                 parts.append(f"not holding at the end ({hold_distance:.1f} m from the hold point)")
             text = "; ".join(parts) + f"; {failed} failed QPs"
         return ControllerResults(summary=summary, outcome=MissionOutcome(success, text))
+
+
+# Paper 004 Table 3: (omega_t deg/s, a_max m/s^2) -> (r_sync m, Hold, r_min m) as printed.
+PAPER_TABLE_3 = {
+    (1, 0.10): (656.6, "No", 0.0),
+    (1, 0.05): (328.3, "No", 143.7),
+    (1, 0.02): (131.3, "No", 145.3),
+    (2, 0.10): (164.1, "No", 143.0),
+    (2, 0.05): (82.1, "No", 141.9),
+    (2, 0.02): (32.8, "No", 111.8),
+    (3, 0.10): (73.0, "No", 138.2),
+    (3, 0.05): (36.5, "No", 111.4),
+    (3, 0.02): (14.6, "No", 67.1),
+    (4, 0.10): (41.0, "No", 113.2),
+    (4, 0.05): (20.5, "No", 67.3),
+    (4, 0.02): (8.2, "No", 62.1),
+    (5, 0.10): (26.3, "No", 75.0),
+    (5, 0.05): (13.1, "No", 63.9),
+    (5, 0.02): (5.3, "No", 51.1),
+}
+
+
+def _start_outcome(metrics: dict | None) -> str:
+    """One start's cell: held or not, the violation (depth) and the least range."""
+    if not metrics:
+        return "failed run"
+    held = "hold" if metrics.get("los_held") else "no hold"
+    depth = metrics.get("los_violation_depth_m") or 0.0
+    violation = f"violated {depth:.2f} m" if depth > 0 else "0 violations"
+    return f"{held}, {violation}, r_min {metrics.get('los_min_range_m', float('nan')):.1f} m"
+
+
+def table3_rows(rows: list[dict]) -> list[list[str]] | None:
+    """Paper 004 Table 3 beside this campaign: one line per (omega_t, a_max), the start inside
+    and the start outside r_sync; None when the rows are not such a campaign."""
+    cells: dict[tuple, dict] = {}
+    for row in rows:
+        overrides, metrics = row.get("overrides") or {}, row.get("metrics")
+        spin = overrides.get("target.w_IT_T_deg_s")
+        a_max = overrides.get("controller.a_max_m_s2")
+        if spin is None or a_max is None or not metrics or "los_sync_range_m" not in metrics:
+            continue
+        key = (round(float(np.linalg.norm(spin)), 6), round(float(a_max), 6))
+        where = "inside" if metrics["los_start_inside_sync_range"] else "outside"
+        cells.setdefault(key, {})[where] = metrics
+    if not cells:
+        return None
+    table = []
+    for (omega, a_max), starts in sorted(cells.items()):
+        r_sync = sync_range_m(a_max, math.radians(omega))
+        paper = PAPER_TABLE_3.get((round(omega), round(a_max, 2)))
+        paper_text = f"{paper[0]:.1f} / {paper[1]} / {paper[2]:.1f}" if paper else "-"
+        table.append(
+            [
+                f"{omega:g}",
+                f"{a_max:.2f}",
+                f"{r_sync:.1f}",
+                _start_outcome(starts.get("inside")),
+                _start_outcome(starts.get("outside")),
+                paper_text,
+            ]
+        )
+    return table
 
 
 def _control_step_samples(t: np.ndarray, period_s: float) -> np.ndarray:
