@@ -90,6 +90,17 @@ class LosMpcSettings:
             the model from x_k, keep every predicted position inside the corridor to within
             this distance [m] (Sec. 9's 1e-3 m); else the step has no usable input.
         polishing: OSQP's solution polishing (a reduced KKT solve on the guessed active set).
+        margin_m: the corridor is tightened by this distance at every predicted step j >= 1
+            (the plan keeps off the faces by it; 0: the paper's 11d). The prediction model is
+            a linearisation frozen over the horizon, so a plan that rides a face leaves the
+            truth millimetres outside it (benchmarks/results/los_filter_study.md: 2-7 mm with
+            0, none with 0.1 m).
+        recovery_steps: R. A chaser already outside the (tightened) corridor makes 11d
+            infeasible at j = 0 and, through it, the whole QP for as long as it stays out;
+            with R > 0 each face's bound at step j is relaxed by the current excess times
+            max(0, 1 - (j / R)^2): a funnel back inside within R steps, quadratic as the path
+            of a chaser that starts from rest at a bounded acceleration (a linear one asks for
+            a speed at j = 1 that the box cannot give) (0: the paper's hard 11d).
     """
 
     horizon: int = 40
@@ -104,6 +115,8 @@ class LosMpcSettings:
     shift_warm_start: bool = True
     check_tolerance_m: float = 1e-3
     polishing: bool = False
+    margin_m: float = 0.1
+    recovery_steps: int = 10
 
     def validate(self) -> None:
         """Raises ValueError('field: message') naming the first bad field."""
@@ -113,6 +126,10 @@ class LosMpcSettings:
             values = np.asarray(getattr(self, name), dtype=float)
             if values.shape != (size,) or not np.all(np.isfinite(values)) or np.any(values < 0):
                 raise ValueError(f"{name}: expected {size} finite non-negative numbers")
+        if not (np.isfinite(self.margin_m) and self.margin_m >= 0):
+            raise ValueError(f"margin_m: must not be negative, got {self.margin_m}")
+        if int(self.recovery_steps) != self.recovery_steps or self.recovery_steps < 0:
+            raise ValueError(f"recovery_steps: must be an integer >= 0, got {self.recovery_steps}")
         if not np.all(np.asarray(self.R_u_diag) + np.asarray(self.R_du_diag) > 0):
             raise ValueError("R_u_diag: R_u + R_du must be positive definite")
         for name in ("terminal_factor", "a_max_m_s2", "eps_abs", "eps_rel", "check_tolerance_m"):
@@ -212,6 +229,8 @@ class LosCorridorMpc:
                     if self._A_c[i, k] != 0.0:
                         add(r_corr + nc * j + i, nx * j + k, self._A_c[i, k])
         r_u = r_corr + nc * (N + 1)
+        self._corridor_rows = slice(r_corr, r_u)
+        self._row_norms = np.linalg.norm(self._A_c, axis=1)
         for j in range(N):
             for k in range(nu):
                 add(r_u + nu * j + k, self._u_offset + nu * j + k, 1.0)
@@ -264,7 +283,23 @@ class LosCorridorMpc:
         A.data[self._dyn_csc_slots] = self._dynamics_values(*self._per_step(A_d, B_d))
         l, u = self._l.copy(), self._u.copy()
         l[:6] = u[:6] = x_k
+        u[self._corridor_rows] = self._corridor_bounds(x_k).ravel()
         return self._P, self._linear_cost(x_ref, u_prev, u_nom), A, l, u
+
+    def _corridor_bounds(self, x_k) -> np.ndarray:
+        """(N + 1, nc): the right-hand side of 11d at each step: b_c tightened by margin_m
+        (j >= 1), relaxed by the funnel of a chaser outside (LosMpcSettings)."""
+        settings = self.settings
+        tightened = self._b_c - settings.margin_m * self._row_norms
+        excess = np.maximum(self._A_c @ np.asarray(x_k, dtype=float)[:3] - tightened, 0.0)
+        steps = np.arange(self.N + 1)
+        if settings.recovery_steps > 0:
+            keep = np.maximum(1.0 - (steps / settings.recovery_steps) ** 2, 0.0)
+        elif settings.margin_m > 0:
+            keep = (steps == 0).astype(float)  # x_0 is data: within the margin is no failure
+        else:
+            keep = np.zeros(self.N + 1)  # the paper's 11d, j = 0 included
+        return tightened[None, :] + keep[:, None] * excess[None, :]
 
     def _per_step(self, A_d, B_d) -> tuple[np.ndarray, np.ndarray]:
         """(A_d (N, 6, 6), B_d (N, 6, 3)) from one pair or one per step."""
@@ -330,6 +365,8 @@ class LosCorridorMpc:
         start = time.perf_counter()
         l, u = self._l, self._u
         l[:6] = u[:6] = np.asarray(x_k, dtype=float)
+        bounds = self._corridor_bounds(x_k)
+        u[self._corridor_rows] = bounds.ravel()
         A_d, B_d = self._per_step(A_d, B_d)
         last = self._last_dynamics
         if last is None or not (np.array_equal(last[0], A_d) and np.array_equal(last[1], B_d)):
@@ -349,7 +386,7 @@ class LosCorridorMpc:
         elif status in (MpcStatus.MAX_ITERATIONS, MpcStatus.SOLVED_INACCURATE) and np.all(
             np.isfinite(z)
         ):
-            u_all, x, checked = self._rollout_check(l[:6], z, A_d, B_d)
+            u_all, x, checked = self._rollout_check(l[:6], z, A_d, B_d, bounds)
         if status is not MpcStatus.SOLVED and not checked:
             elapsed = time.perf_counter() - start
             return MpcResult(status, None, None, None, iterations, elapsed)
@@ -357,14 +394,14 @@ class LosCorridorMpc:
         elapsed = time.perf_counter() - start
         return MpcResult(status, u_all[0].copy(), u_all, x, iterations, elapsed, checked)
 
-    def _rollout_check(self, x_k, z, A_d, B_d) -> tuple[np.ndarray, np.ndarray, bool]:
-        """(u clipped, the rollout x, whether every predicted position j >= 1 is inside the
-        corridor to check_tolerance_m): the independent check of an unfinished iterate."""
+    def _rollout_check(self, x_k, z, A_d, B_d, bounds) -> tuple[np.ndarray, np.ndarray, bool]:
+        """(u clipped, the rollout x, whether every predicted position j >= 1 meets the QP's
+        own 11d bounds to check_tolerance_m): the independent check of an unfinished iterate."""
         a_max = self.settings.a_max_m_s2
         u_all = np.clip(z[self._u_offset :].reshape(self.N, 3), -a_max, a_max)
         x = np.empty((self.N + 1, 6))
         x[0] = x_k
         for j in range(self.N):
             x[j + 1] = A_d[j] @ x[j] + B_d[j] @ u_all[j]
-        distance = (self._b_c - x[1:, :3] @ self._A_c.T) / np.linalg.norm(self._A_c, axis=1)
+        distance = (bounds[1:] - x[1:, :3] @ self._A_c.T) / self._row_norms
         return u_all, x, bool(np.min(distance) >= -self.settings.check_tolerance_m)

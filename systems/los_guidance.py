@@ -94,6 +94,8 @@ class LosGuidanceConfig:
         damping: the PD's damping ratio.
         hold_tolerance_m: epsilon of the hold regime [m].
         hold_speed_m_s: v_switch of the hold regime [m/s].
+        fallback_plan_steps: how many steps of the last plan a failed QP may follow (open
+            loop) before the last resort (module docstring).
         reference_lead_s: how far ahead of the chaser the close approach's reference point
             runs, in seconds of travel at the speed limit (10 s: the MPC then closes in near
             the limit; half a 40 s horizon made it rush at twice v_max and brake hard).
@@ -117,6 +119,7 @@ class LosGuidanceConfig:
     hold_tolerance_m: float = 1.0
     hold_speed_m_s: float = 0.05
     reference_lead_s: float = 10.0
+    fallback_plan_steps: int = 5
     half_angle_deg: float = 30.0
     faces: int = 8
     floor_m: float = 1.0
@@ -162,6 +165,12 @@ class LosGuidanceConfig:
             )
         if self.prediction not in PREDICTIONS:
             raise ValueError(f"prediction: must be one of {PREDICTIONS}, got {self.prediction!r}")
+        if int(self.fallback_plan_steps) != self.fallback_plan_steps or not (
+            0 <= self.fallback_plan_steps
+        ):
+            raise ValueError(
+                f"fallback_plan_steps: must be an integer >= 0, got {self.fallback_plan_steps}"
+            )
         if int(self.substeps) != self.substeps or not 1 <= self.substeps <= 100:
             raise ValueError(f"substeps: must be an integer in [1, 100], got {self.substeps}")
         default_bound = LosMpcSettings().a_max_m_s2
@@ -366,6 +375,16 @@ class LosGuidance(LeafSystem):
         v_ref = _saturate(gain * (distance - ahead) * direction, speed)
         return np.concatenate([view.p_T + ahead * direction, v_ref])
 
+    def _last_resort(self, view: BodyFrameView, mode: Regime, u_nom) -> tuple:
+        """(command, Fallback) when there is no plan to follow (module docstring): the brake
+        when the box can give it, else the regime's own command, clipped."""
+        a_max = self.config.a_max_m_s2
+        if mode is not Regime.FAR:
+            brake = view.command_L(-view.v_T / self.config.control_period_s)
+            if np.all(np.abs(brake) <= a_max):
+                return brake, Fallback.BRAKE
+        return np.clip(u_nom, -a_max, a_max), Fallback.NOMINAL
+
     def _update(self, context, state) -> None:
         config, t = self.config, context.get_time()
         sensed = Sensed.from_vector(self._sensed_port.Eval(context))
@@ -404,15 +423,11 @@ class LosGuidance(LeafSystem):
             iterations, solve_time = result.iterations, result.solve_time_s
             if result.solved:
                 command, plan, plan_age = result.u0, result.u, 0
-            elif plan_age + 1 < len(plan):
+            elif plan_age + 1 < min(len(plan), config.fallback_plan_steps + 1):
                 plan_age += 1
                 command, fallback = plan[int(plan_age)], Fallback.PREVIOUS_PLAN
-            elif mode is Regime.FAR:
-                command = np.clip(u_nom, -config.a_max_m_s2, config.a_max_m_s2)
-                fallback = Fallback.NOMINAL
             else:
-                command = brake_command_L(view, config.control_period_s, config.a_max_m_s2)
-                fallback = Fallback.BRAKE
+                command, fallback = self._last_resort(view, mode, u_nom)
         command = np.asarray(command, dtype=float)
         state.get_mutable_discrete_state(self._held).set_value(
             np.concatenate(

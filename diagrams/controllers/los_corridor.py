@@ -194,17 +194,23 @@ class LosCorridorPlugin(ControllerPlugin):
         depth, duration, first = violation_summary(
             log["t"], log["los_face_distance_m"], VIOLATION_TOLERANCE_M
         )
-        solved = [MPC_STATUS_CODES[s] for s in (MpcStatus.SOLVED, MpcStatus.SOLVED_INACCURATE)]
         # One sample per control step: the samples at k period_s hold step k - 1's status
         # (the t = 0 sample holds the initial -1s, left out of the counts).
         steps = _control_step_samples(log["t"], config.control_period_s)
         steps = steps[log["los_regime"][steps] >= 0]
         codes = log["los_mpc_status"][steps]
-        failed = int(np.count_nonzero((codes >= 0) & ~np.isin(codes, solved)))
+        # OSQP's verdict other than 'solved' (an unfinished iterate may still have passed the
+        # rollout check and flown), and the steps flown on a fallback.
+        not_solved = int(
+            np.count_nonzero((codes >= 0) & (codes != MPC_STATUS_CODES[MpcStatus.SOLVED]))
+        )
         fallbacks = log["los_fallback"][steps]
+        on_fallback = int(np.count_nonzero(fallbacks != Fallback.NONE))
         hold_distance = float(np.linalg.norm(p_T[-1] - wiring.system.p_TH_T))
         held = bool(log["los_regime"][-1] == Regime.HOLD)
-        in_hold = np.flatnonzero(log["los_regime"] == Regime.HOLD)
+        # The hold reached: the first sample of the final run of hold samples.
+        not_holding = np.flatnonzero(log["los_regime"] != Regime.HOLD)
+        reached = int(not_holding[-1]) + 1 if len(not_holding) else 0
         min_distance = float(np.nanmin(log["los_face_distance_m"]))
         summary = {
             "los_sync_range_m": r_sync,
@@ -216,9 +222,10 @@ class LosCorridorPlugin(ControllerPlugin):
             "los_min_face_distance_m": min_distance,
             "los_min_range_m": float(np.min(log["los_range_m"])),
             "los_held": held,
-            "los_hold_reached_s": float(log["t"][in_hold[0]]) if len(in_hold) else None,
+            "los_hold_reached_s": float(log["t"][reached]) if held else None,
             "los_final_hold_error_m": hold_distance,
-            "los_qp_failures": failed,
+            "los_qp_not_solved": not_solved,
+            "los_fallback_steps": on_fallback,
             "los_fallback_previous_plan": int(
                 np.count_nonzero(fallbacks == Fallback.PREVIOUS_PLAN)
             ),
@@ -236,7 +243,7 @@ class LosCorridorPlugin(ControllerPlugin):
             text = (
                 f"held at {config.hold_distance_m:g} m on the corridor axis from "
                 f"{summary['los_hold_reached_s']:.0f} s, zero corridor violations (least margin "
-                f"{min_distance:.2f} m), {failed} failed QPs"
+                f"{min_distance:.2f} m), {on_fallback} steps on a fallback"
             )
         else:
             parts = []
@@ -246,7 +253,7 @@ class LosCorridorPlugin(ControllerPlugin):
                 )
             if not held:
                 parts.append(f"not holding at the end ({hold_distance:.1f} m from the hold point)")
-            text = "; ".join(parts) + f"; {failed} failed QPs"
+            text = "; ".join(parts) + f"; {on_fallback} steps on a fallback"
         return ControllerResults(summary=summary, outcome=MissionOutcome(success, text))
 
 
@@ -271,13 +278,16 @@ PAPER_TABLE_3 = {
 
 
 def _start_outcome(metrics: dict | None) -> str:
-    """One start's cell: held or not, the violation (depth) and the least range."""
+    """One start's cell: held or not, the violation (depth), the least range and whether the
+    true shapes touched."""
     if not metrics:
         return "failed run"
     held = "hold" if metrics.get("los_held") else "no hold"
     depth = metrics.get("los_violation_depth_m") or 0.0
     violation = f"violated {depth:.2f} m" if depth > 0 else "0 violations"
-    return f"{held}, {violation}, r_min {metrics.get('los_min_range_m', float('nan')):.1f} m"
+    contact = ", CONTACT" if metrics.get("min_separation_m", 1.0) <= 0.0 else ""
+    r_min = metrics.get("los_min_range_m", float("nan"))
+    return f"{held}, {violation}, r_min {r_min:.1f} m{contact}"
 
 
 def table3_rows(rows: list[dict]) -> list[list[str]] | None:

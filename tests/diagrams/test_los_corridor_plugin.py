@@ -67,3 +67,33 @@ def test_a_start_seen_in_T_is_at_rest_in_the_turning_target_frame():
     np.testing.assert_allclose(v_L - np.cross(w_LT_L, p_L), 0.0, atol=1e-15)
     scenario.chaser.velocity_seen_in = "L"
     np.testing.assert_array_equal(initial_relative_state_L(scenario)[1], 0.0)
+
+
+def test_table3_rows_pair_the_starts_and_sit_beside_the_paper():
+    from rpod.diagrams.controllers.los_corridor import table3_rows
+
+    def row(spin, a_max, inside, held, depth, r_min, separation=5.0):
+        return {
+            "status": "ok",
+            "overrides": {"target.w_IT_T_deg_s": [0.0, 0.0, spin], "controller.a_max_m_s2": a_max},
+            "metrics": {
+                "los_sync_range_m": 1.0,
+                "los_start_inside_sync_range": inside,
+                "los_held": held,
+                "los_violation_depth_m": depth,
+                "los_min_range_m": r_min,
+                "min_separation_m": separation,
+            },
+        }
+
+    rows = [
+        row(2.0, 0.10, True, True, 0.0, 9.7),
+        row(2.0, 0.10, False, False, 550.2, 159.4, separation=0.0),
+        {"status": "ok", "overrides": {}, "metrics": {"final_range_m": 3.0}},  # not a LOS run
+    ]
+    (line,) = table3_rows(rows)
+    assert line[:3] == ["2", "0.10", "164.1"]  # r_sync = 2 a_max / omega_t^2, exact
+    assert line[3] == "hold, 0 violations, r_min 9.7 m"
+    assert line[4] == "no hold, violated 550.20 m, r_min 159.4 m, CONTACT"
+    assert line[5] == "164.1 / No / 143.0"  # the paper's row as printed
+    assert table3_rows([rows[2]]) is None

@@ -14,6 +14,7 @@ N_ORBIT = 1.131e-3  # paper 004 Table 1: 500 km
 DT = 1.0
 CORRIDOR = LosCorridor()
 TIGHT = {"eps_abs": 1e-9, "eps_rel": 1e-9, "max_iter": 200000}
+PAPER_11D = {"margin_m": 0.0, "recovery_steps": 0}  # eq. 11d as the paper writes it
 
 
 def _model(dt=DT):
@@ -95,7 +96,7 @@ def test_per_step_models_and_a_nominal_command_equal_clarabel():
 
 def test_the_input_bound_and_the_corridor_are_active_when_the_reference_pulls_out():
     """A reference outside the corridor: the solution rides the corridor, inputs bounded."""
-    settings = LosMpcSettings(horizon=20, a_max_m_s2=0.02, **TIGHT)
+    settings = LosMpcSettings(horizon=20, a_max_m_s2=0.02, **TIGHT, **PAPER_11D)
     mpc = LosCorridorMpc(settings, CORRIDOR.A_c, CORRIDOR.b_c)
     A_d, B_d = _model()
     x_k = np.array([10.0, 20.0, 0.0, 0.0, 0.0, 0.0])  # 26.6 deg off the axis, toward +x
@@ -107,7 +108,7 @@ def test_the_input_bound_and_the_corridor_are_active_when_the_reference_pulls_ou
 
 
 def test_a_start_outside_the_corridor_is_an_infeasible_status_not_an_exception():
-    mpc = LosCorridorMpc(LosMpcSettings(horizon=20), CORRIDOR.A_c, CORRIDOR.b_c)
+    mpc = LosCorridorMpc(LosMpcSettings(horizon=20, **PAPER_11D), CORRIDOR.A_c, CORRIDOR.b_c)
     A_d, B_d = _model()
     outside = np.array([0.0, -5.0, 0.0, 0.0, 0.0, 0.0])  # behind the target: x_0 violates 11d
     result = mpc.solve(outside, np.zeros(6), np.zeros(3), A_d, B_d)
@@ -126,3 +127,29 @@ def test_bad_settings_name_the_field():
     ):
         with pytest.raises(ValueError, match=field):
             LosCorridorMpc(LosMpcSettings(**bad), CORRIDOR.A_c, CORRIDOR.b_c)
+
+
+def test_the_recovery_funnel_brings_a_chaser_outside_back_in_within_its_steps():
+    """Outside a face, the paper's 11d is infeasible; the funnel relaxes each step's bound by
+    the excess times max(0, 1 - (j / R)^2), so the plan is back inside (with the margin) by
+    j = R: checked on the returned trajectory, and against the model."""
+    R = 10
+    settings = LosMpcSettings(horizon=20, margin_m=0.1, recovery_steps=R, **TIGHT)
+    mpc = LosCorridorMpc(settings, CORRIDOR.A_c, CORRIDOR.b_c)
+    A_d, B_d = _model()
+    outside = np.array([14.0, 20.0, 0.0, 0.0, 0.0, 0.0])  # 35 deg off the axis: 2.1 m out
+    distance = CORRIDOR.slack(outside[:3]) / np.linalg.norm(CORRIDOR.A_c, axis=1)
+    assert distance.min() < -1.0
+    result = mpc.solve(outside, np.array([0.0, 10.0, 0.0, 0, 0, 0]), np.zeros(3), A_d, B_d)
+    assert result.status is MpcStatus.SOLVED
+    x = result.x
+    residual = x[1:] - (x[:-1] @ A_d.T + result.u @ B_d.T)
+    assert np.max(np.abs(residual)) < 1e-6
+    inside = CORRIDOR.slack(x[:, :3]) / np.linalg.norm(CORRIDOR.A_c, axis=1)
+    assert np.all(inside[R:] >= 0.1 - 1e-6)  # from j = R on: inside by the margin
+    excess = np.maximum(-distance + 0.1, 0.0)
+    for j in range(1, R):  # never further out than the funnel allows
+        assert np.all(0.1 - inside[j] <= excess * (1 - (j / R) ** 2) + 1e-6)
+    # The paper's 11d: the same start is an infeasible QP.
+    paper = LosCorridorMpc(LosMpcSettings(horizon=20, **PAPER_11D), CORRIDOR.A_c, CORRIDOR.b_c)
+    assert not paper.solve(outside, np.zeros(6), np.zeros(3), A_d, B_d).solved

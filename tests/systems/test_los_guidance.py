@@ -93,7 +93,9 @@ def test_regimes_on_hand_worked_states():
 
 
 def _guidance(horizon=5):
-    config = LosGuidanceConfig(mpc=LosMpcSettings(horizon=horizon))
+    """The paper's hard 11d (no margin, no funnel) and the whole last plan as the fallback."""
+    settings = LosMpcSettings(horizon=horizon, margin_m=0.0, recovery_steps=0)
+    config = LosGuidanceConfig(mpc=settings, fallback_plan_steps=horizon)
     system = LosGuidance(config, INERTIA, "two_body_j2")
     context = system.CreateDefaultContext()
     return system, context, Simulator(system, context)
@@ -149,3 +151,18 @@ def test_face_distance_is_the_signed_distance_to_each_plane():
     # On the axis 20 m up: every face is 20 sin(30 deg) = 10 m away, the floor 19 m.
     np.testing.assert_allclose(distance[:8], 10.0, atol=1e-9)
     assert distance[8] == pytest.approx(19.0, abs=1e-9)
+
+
+def test_the_last_resort_brakes_when_the_box_allows_and_else_flies_the_regime_command():
+    from rpod.systems.sensed import Sensed
+
+    system, _, _ = _guidance()
+    slow = BodyFrameView.from_sensed(Sensed.from_vector(_sensed([0.0, -5.0, 0.0], [0.0, 0.05, 0])))
+    command, fallback = system._last_resort(slow, Regime.CLOSE, np.array([0.3, 0.0, 0.0]))
+    assert fallback is Fallback.BRAKE and np.all(np.abs(command) <= 0.1)
+    np.testing.assert_allclose(command, slow.command_L(-slow.v_T / 1.0))  # zero v_T in 1 s
+    # At 120 m the co-rotation alone needs omega^2 r = 0.15 m/s^2 > a_max: no brake.
+    far = BodyFrameView.from_sensed(Sensed.from_vector(_sensed([0.0, 120.0, 0.0], [0.5, 0, 0])))
+    command, fallback = system._last_resort(far, Regime.CLOSE, np.array([0.3, -0.05, 0.0]))
+    assert fallback is Fallback.NOMINAL
+    np.testing.assert_array_equal(command, [0.1, -0.05, 0.0])
