@@ -12,7 +12,7 @@ import dataclasses
 import time
 
 import numpy as np
-from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
+from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorStatus
 
 from rpod.diagrams import controller_seam
 from rpod.diagrams.builder import DiagramHandles, build_diagram
@@ -128,11 +128,13 @@ def simulate(scenario: Scenario, meshcat=None) -> SimulationResult:
     # Wall time from here: Initialize runs initialization events (a planning controller's
     # first plan), which belong to the simulation's cost, not the build's.
     built = time.perf_counter()
-    status, warnings = "ok", []
+    status, warnings, stopped = "ok", [], None
     try:
         simulator.Initialize()
         end_s = _end_time_s(scenario, handles, simulator.get_context(), warnings)
-        simulator.AdvanceTo(end_s)
+        returned = simulator.AdvanceTo(end_s)
+        if returned.reason() == SimulatorStatus.ReturnReason.kReachedTerminationCondition:
+            stopped = returned.FormatMessage()  # a system ended the run on purpose
     except RuntimeError as error:
         status = f"failed: {str(error).splitlines()[0]}"
     finished = time.perf_counter()
@@ -152,6 +154,7 @@ def simulate(scenario: Scenario, meshcat=None) -> SimulationResult:
         summary.update(results.summary)
         outcome = results.outcome
     summary["warnings"] = warnings
+    summary["stopped_early"] = stopped
     # "Did the simulation run" (status) apart from "did the mission succeed" (mission).
     summary["mission"] = {
         "success": None if outcome is None else bool(outcome.success),

@@ -49,7 +49,7 @@ import math
 
 import numpy as np
 from pydrake.common.value import Value
-from pydrake.systems.framework import LeafSystem
+from pydrake.systems.framework import EventStatus, LeafSystem
 
 from rpod.models.cw import cw_acceleration
 from rpod.models.frames import rotation_from_wxyz
@@ -79,6 +79,7 @@ class Fallback(enum.IntEnum):
 # MpcStatus -> the integer the log holds (-1: no solve this step).
 MPC_STATUS_CODES = {status: index for index, status in enumerate(MpcStatus)}
 PREDICTIONS = ("online", "cw")
+VIOLATION_STOP_M = 1e-3  # paper 004 Sec. 9's tolerance
 
 
 @dataclasses.dataclass
@@ -94,6 +95,9 @@ class LosGuidanceConfig:
         damping: the PD's damping ratio.
         hold_tolerance_m: epsilon of the hold regime [m].
         hold_speed_m_s: v_switch of the hold regime [m/s].
+        stop_at_violation: end the run at the first control step that finds the chaser
+            outside the corridor by more than VIOLATION_STOP_M (paper 004 Sec. 9 classifies
+            such a run infeasible whatever follows: a Monte Carlo campaign need not fly it on).
         fallback_plan_steps: how many steps of the last plan a failed QP may follow (open
             loop) before the last resort (module docstring).
         reference_lead_s: how far ahead of the chaser the close approach's reference point
@@ -120,6 +124,7 @@ class LosGuidanceConfig:
     hold_speed_m_s: float = 0.05
     reference_lead_s: float = 10.0
     fallback_plan_steps: int = 5
+    stop_at_violation: bool = False
     half_angle_deg: float = 30.0
     faces: int = 8
     floor_m: float = 1.0
@@ -438,3 +443,10 @@ class LosGuidance(LeafSystem):
             np.concatenate([command, [rho_ref, float(mode is Regime.HOLD), plan_age]])
         )
         state.get_mutable_abstract_state(self._plan).set_value(plan)
+        if config.stop_at_violation:
+            outside = -float(np.min(self.corridor.slack(view.p_T) / self._row_norms))
+            if outside > VIOLATION_STOP_M:
+                return EventStatus.ReachedTermination(
+                    self, f"corridor violated by {outside:.3f} m at t = {t:.1f} s"
+                )
+        return EventStatus.Succeeded()

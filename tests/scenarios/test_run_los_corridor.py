@@ -124,3 +124,25 @@ def test_beyond_the_paper_thrusters_and_a_non_principal_tumble_hold_the_corridor
         angle = np.degrees(np.arccos(np.clip((np.trace(R_LC, axis1=1, axis2=2) - 1) / 2, -1, 1)))
         assert angle.max() < 1.0
         assert np.count_nonzero(log["thruster_duty"]) > 0  # flown on the thrusters, not ideally
+
+
+def test_stop_at_violation_ends_the_run_at_the_first_violating_step(tmp_path):
+    """Paper 004 Sec. 9's early termination: the run ends at the first control step outside
+    the corridor, the summary says so, and the violation is in the log's last sample."""
+    out = tmp_path / "stop"
+    process = _run(
+        out,
+        "los_corridor_far",
+        "--no-record",
+        "--set",
+        "controller.stop_at_violation=true",
+        "--set",
+        "controller.mpc.max_iter=500",
+    )
+    assert process.returncode == 3, process.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["sim_time_s"] < summary["los_first_violation_s"] + 1.0 + 1e-9
+    assert "corridor violated" in summary["stopped_early"]
+    log = np.load(out / "log.npz")
+    assert _face_distances(log)[-1].min() < -TOLERANCE_M
+    assert summary["status"] == "ok"
