@@ -30,6 +30,7 @@ import statistics
 import time
 
 import numpy as np
+from machine import write_results  # benchmarks/machine.py, beside this script
 from pydrake.common.value import AbstractValue
 from pydrake.solvers import ClpSolver, MathematicalProgram
 
@@ -338,10 +339,7 @@ def main():
         "",
         *format_table(rows),
     ]
-    text = "\n".join(lines) + "\n"
-    print(text, end="")
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(text)
+    write_results(RESULTS, lines)
 
 
 if __name__ == "__main__":

@@ -23,7 +23,7 @@ import pathlib
 import sys
 import time
 
-from machine import machine_line  # benchmarks/machine.py, beside this script
+from machine import machine_line, write_results  # benchmarks/machine.py, beside this script
 
 from rpod.diagrams.simulate import simulate
 from rpod.planners.los_corridor_mpc import LosCorridorMpc
@@ -126,10 +126,7 @@ def main() -> None:
         "| --- | ---: | ---: | --- | ---: | ---: | ---: | ---: | ---: | --- |",
         *rows,
     ]
-    text = "\n".join(lines) + "\n"
-    print(text, end="")
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(text)
+    write_results(RESULTS, lines)
 
 
 if __name__ == "__main__":

@@ -26,7 +26,7 @@ import time
 
 import numpy as np
 import osqp
-from machine import machine_line  # benchmarks/machine.py, beside this script
+from machine import machine_line, write_results  # benchmarks/machine.py, beside this script
 
 from rpod.diagrams.simulate import simulate
 from rpod.planners import los_corridor_mpc
@@ -162,10 +162,7 @@ def main() -> None:
             "slowest steps are the first two, cold."
         ),
     ]
-    text = "\n".join(lines) + "\n"
-    print(text, end="")
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(text)
+    write_results(RESULTS, lines)
 
 
 if __name__ == "__main__":

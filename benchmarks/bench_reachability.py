@@ -23,7 +23,7 @@ import sys
 import time
 
 import numpy as np
-from machine import machine_line  # benchmarks/machine.py, beside this script
+from machine import machine_line, write_results  # benchmarks/machine.py, beside this script
 
 from rpod.diagrams.plots_reachability import write_reachability_figures
 from rpod.models.los_corridor import LosCorridor, sync_range_m
@@ -474,10 +474,7 @@ def main() -> None:
         "",
         f"Figures: {', '.join(p.name for p in figures)} (beside this file).",
     ]
-    text = "\n".join(lines) + "\n"
-    print(text, end="")
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(text)
+    write_results(RESULTS, lines)
 
 
 if __name__ == "__main__":

@@ -1,7 +1,9 @@
-"""The machine line the benchmarks print above their tables (imported by the scripts beside it)."""
+"""What the benchmarks share (imported by the scripts beside it): the machine line they print
+above their tables, and writing a results file."""
 
 import importlib.metadata
 import os
+import pathlib
 import platform
 
 
@@ -20,3 +22,11 @@ def machine_line() -> str:
         f"{platform.machine()}, {cpu}, {os.cpu_count()} cores, Python "
         f"{platform.python_version()}, drake {importlib.metadata.version('drake')}"
     )
+
+
+def write_results(path: pathlib.Path, lines: list[str]) -> None:
+    """Prints the results' lines and writes them to path (a file under benchmarks/results/)."""
+    text = "\n".join(lines) + "\n"
+    print(text, end="")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text)
