@@ -14,7 +14,7 @@ Figures, one file each (`PLAN_FIGURE_NAMES`):
                   angle(r_k, r_k+1) against omega_max dt (the field of view, eq. 12).
 
 Decisions: matplotlib through `matplotlib.figure.Figure` (no pyplot), written atomically (a
-temporary file renamed over the final name, `rpod.diagrams.plots._save_atomic`); a plan with
+temporary file renamed over the final name, `rpod.diagrams.plots.save_figure`); a plan with
 fewer than two knots draws nothing (and removes stale files of these names).
 """
 
@@ -30,7 +30,7 @@ from mpl_toolkits.mplot3d import Axes3D  # noqa: F401  (registers the "3d" proje
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 from scipy.spatial import ConvexHull
 
-from rpod.diagrams.plots import _equal_aspect_3d, _save_atomic
+from rpod.diagrams.plots import _equal_aspect_3d, save_figure
 from rpod.models.frames import rotations_from_wxyz
 
 _logger = logging.getLogger(__name__)
@@ -245,7 +245,7 @@ def write_plan_plots(plan: Mapping, out_dir: Path, title: str = "") -> list[Path
             path.unlink(missing_ok=True)
             continue
         try:
-            _save_atomic(make(plan, title), path)
+            save_figure(make(plan, title), path)
             written.append(path)
         except Exception:  # a side output: never lose the others
             _logger.warning("plan plots: could not draw %s", name, exc_info=True)

@@ -603,8 +603,9 @@ assert tuple(_FIGURES) == FIGURE_NAMES + LOS_FIGURE_NAMES
 # Writing
 
 
-def _save_atomic(fig: Figure, path: Path) -> None:
-    """Renders fig as PNG to a temporary file beside path, then renames it over path."""
+def save_figure(fig: Figure, path: Path) -> None:
+    """Renders fig as PNG to a temporary file beside path, then renames it over path (a reader
+    never sees half a file; every rpod figure is written through here)."""
     FigureCanvasAgg(fig)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
     try:
@@ -643,7 +644,7 @@ def write_plots(log: Mapping[str, np.ndarray], out_dir: Path, title: str = "") -
             if fig is None:
                 path.unlink(missing_ok=True)  # no stale figure from an earlier run
                 continue
-            _save_atomic(fig, path)
+            save_figure(fig, path)
             written.append(path)
         except Exception:  # a side output: never lose the others (see the module docstring)
             _logger.warning("plots: could not draw %s", name, exc_info=True)

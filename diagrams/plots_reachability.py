@@ -13,15 +13,13 @@ backward kernel's polygon as outlines, from rest in T dashed and from rest in I 
 from __future__ import annotations
 
 import math
-import os
 import pathlib
-import uuid
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.colors import ListedColormap
 from matplotlib.figure import Figure
 
+from rpod.diagrams.plots import save_figure
 from rpod.planners import reachability as reach
 
 _DPI = 110
@@ -121,18 +119,6 @@ def figure_collapse(fractions: dict) -> Figure:
     return fig
 
 
-def _save(fig: Figure, path: pathlib.Path) -> None:
-    """PNG to a temporary file beside path, then renamed over it."""
-    FigureCanvasAgg(fig)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
-    try:
-        with open(tmp, "xb") as f:
-            fig.savefig(f, format="png", dpi=_DPI)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-
-
 def write_reachability_figures(
     out_dir: pathlib.Path, grid, masks: dict, polygons: dict, fractions: dict
 ) -> list[pathlib.Path]:
@@ -140,6 +126,6 @@ def write_reachability_figures(
     out_dir = pathlib.Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = [out_dir / "reachability_regions.png", out_dir / "reachability_collapse.png"]
-    _save(figure_nested_regions(grid, masks, polygons), paths[0])
-    _save(figure_collapse(fractions), paths[1])
+    save_figure(figure_nested_regions(grid, masks, polygons), paths[0])
+    save_figure(figure_collapse(fractions), paths[1])
     return paths
