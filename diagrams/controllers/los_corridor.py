@@ -161,7 +161,18 @@ class LosCorridorPlugin(ControllerPlugin):
         )
 
     def campaign_table(self, rows):
-        """Paper 004 Table 3 beside a campaign of LOS-corridor runs (table3_rows)."""
+        """A campaign of LOS-corridor runs beside paper 004: its Monte Carlo set (Sec. 9, when
+        a combination has more than two starts: monte_carlo_rows) or Table 3 (table3_rows)."""
+        table = monte_carlo_rows(rows)
+        if table:
+            title = (
+                "Paper 004 Sec. 9 beside this campaign: X_MC (the starts' outcomes by Sibson "
+                "interpolation on the 300 x 300 grid) and the analytical sets, % of the cone "
+                "(rpod.planners.reachability_mc):"
+            )
+            header = ["omega_t deg/s", "a_max m/s^2", "feasible starts", "X_MC %"]
+            header += ["X_nom % (paper)", "X_stoch %", "X_rob %", "X_nom not in X_MC"]
+            return title, header, table
         table = table3_rows(rows)
         if not table:
             return None
@@ -318,6 +329,33 @@ def table3_rows(rows: list[dict]) -> list[list[str]] | None:
                 _start_outcome(starts.get("inside")),
                 _start_outcome(starts.get("outside")),
                 paper_text,
+            ]
+        )
+    return table
+
+
+def monte_carlo_rows(rows: list[dict]) -> list[list[str]] | None:
+    """One line per (omega_t, a_max) of a Monte Carlo campaign (more than two starts in some
+    combination), or None (rpod.planners.reachability_mc.mc_report)."""
+    from rpod.planners.reachability_mc import mc_outcomes, mc_report  # only for a report
+
+    outcomes = mc_outcomes(rows)
+    if not outcomes or max(len(feasible) for _, feasible in outcomes.values()) <= 2:
+        return None
+    table = []
+    for record in mc_report(rows):
+        feasible = sum(1 for start in record.starts if start.feasible)
+        paper = record.paper_nominal_percent
+        table.append(
+            [
+                f"{record.omega_deg:g}",
+                f"{record.a_max_m_s2:.2f}",
+                f"{feasible}/{len(record.starts)}",
+                f"{record.mc_percent:.1f}",
+                f"{record.nominal_percent:.1f} ({'-' if paper is None else f'{paper:.1f}'})",
+                f"{record.stochastic_percent:.1f}",
+                f"{record.robust_percent:.1f}",
+                f"{record.nominal_not_mc} ({record.nominal_not_mc_extrapolated} extrapolated)",
             ]
         )
     return table

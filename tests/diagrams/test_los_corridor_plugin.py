@@ -97,3 +97,36 @@ def test_table3_rows_pair_the_starts_and_sit_beside_the_paper():
     assert line[4] == "no hold, violated 550.20 m, r_min 159.4 m, CONTACT"
     assert line[5] == "164.1 / No / 143.0"  # the paper's row as printed
     assert table3_rows([rows[2]]) is None
+
+
+def test_a_monte_carlo_campaign_gets_the_sec_9_table_not_table_3():
+    from rpod.diagrams.controllers.los_corridor import monte_carlo_rows, table3_rows
+
+    def row(x, y, feasible):
+        return {
+            "run_id": f"{x}-{y}",
+            "status": "ok",
+            "overrides": {
+                "target.w_IT_T_deg_s": [0.0, 0.0, 2.0],
+                "controller.a_max_m_s2": 0.10,
+                "chaser.p_LC_L": [x, y, 0.0],
+            },
+            "metrics": {
+                "sim_time_s": 400.0,
+                "los_violation": not feasible,
+                "los_violation_depth_m": 0.0 if feasible else 3.0,
+                "stopped_early": None,
+                "los_sync_range_m": 164.1,
+                "los_start_inside_sync_range": True,
+                "los_held": feasible,
+                "los_min_range_m": 10.0,
+                "min_separation_m": 5.0,
+            },
+        }
+
+    rows = [row(-5.0, 40.0, True), row(0.0, 60.0, True), row(5.0, 80.0, False), row(0, 100, False)]
+    (line,) = monte_carlo_rows(rows)
+    assert line[:3] == ["2", "0.10", "2/4"]
+    assert line[4].endswith("(11.3)")  # paper 004 Table 2 beside ours
+    assert monte_carlo_rows(rows[:2]) is None  # two starts: a Table 3 campaign
+    assert table3_rows(rows[:2]) is not None
