@@ -31,6 +31,7 @@ from rpod.diagrams.controller_seam import (
     register_controller,
 )
 from rpod.diagrams.plots_los import VIOLATION_TOLERANCE_M, violation_summary
+from rpod.diagrams.scenario import ScenarioError
 from rpod.models.frames import rotations_from_wxyz
 from rpod.models.los_corridor import sync_range_m
 from rpod.planners.los_corridor_mpc import MpcStatus
@@ -99,8 +100,6 @@ class LosCorridorPlugin(ControllerPlugin):
 
     def validate(self, config, scenario) -> None:
         super().validate(config, scenario)
-        from rpod.diagrams.scenario import ScenarioError
-
         if scenario.orbit.gravity in ("cw", "free_space"):
             raise ScenarioError(
                 "orbit.gravity",
