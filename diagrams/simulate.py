@@ -134,7 +134,7 @@ def simulate(scenario: Scenario, meshcat=None) -> SimulationResult:
         end_s = _end_time_s(scenario, handles, simulator.get_context(), warnings)
         returned = simulator.AdvanceTo(end_s)
         if returned.reason() == SimulatorStatus.ReturnReason.kReachedTerminationCondition:
-            stopped = returned.FormatMessage()  # a system ended the run on purpose
+            stopped = returned.message()  # a system ended the run on purpose: its words
     except RuntimeError as error:
         status = f"failed: {str(error).splitlines()[0]}"
     finished = time.perf_counter()
