@@ -142,6 +142,13 @@ class SafeStartGrid:
     y_max_m: float
 
     @classmethod
+    def at_points(cls, points_T: np.ndarray, corridor: LosCorridor) -> SafeStartGrid:
+        """Arbitrary points (K, 3) as a grid, so that criterion (16) can be asked at them."""
+        points_T = np.asarray(points_T, dtype=float)
+        empty = np.zeros(0)
+        return cls(empty, empty, points_T, corridor.contains(points_T), math.nan)
+
+    @classmethod
     def over_cone(
         cls,
         corridor: LosCorridor,

@@ -486,12 +486,6 @@ def _hull_mask(sites: np.ndarray, query: np.ndarray) -> np.ndarray:
         return np.zeros(len(query), dtype=bool)
 
 
-def _points_grid(points_T: np.ndarray, corridor: LosCorridor) -> reach.SafeStartGrid:
-    """A SafeStartGrid of arbitrary points, so that criterion (16) can be asked at the starts."""
-    empty = np.zeros(0)
-    return reach.SafeStartGrid(empty, empty, points_T, corridor.contains(points_T), math.nan)
-
-
 def mc_report(
     rows: list[dict],
     y_max_m: float = reach.GRID_Y_MAX_M,
@@ -534,7 +528,9 @@ def mc_report(
         masks = {"mc": mc, **sets}
         exceptions_mask = sets["nominal"] & ~mc
         at_starts = reach.certified_mask(
-            reach.GridSlack.on(_points_grid(np.array([s.p_T for s in starts]), corridor), corridor),
+            reach.GridSlack.on(
+                reach.SafeStartGrid.at_points(np.array([s.p_T for s in starts]), corridor), corridor
+            ),
             omega,
             key[1],
         )

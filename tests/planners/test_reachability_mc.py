@@ -260,7 +260,9 @@ def test_report_names_a_planted_failure(grid_terms):
     near = _near_nominal(grid, terms, 2.0, 0.10, 30.0)
     starts = mc.paper_mc_starts(CORRIDOR)
     at_starts = reach.certified_mask(
-        reach.GridSlack.on(mc._points_grid(starts, CORRIDOR), CORRIDOR), math.radians(2.0), 0.1
+        reach.GridSlack.on(reach.SafeStartGrid.at_points(starts, CORRIDOR), CORRIDOR),
+        math.radians(2.0),
+        0.1,
     )
     planted = int(np.flatnonzero(at_starts)[len(np.flatnonzero(at_starts)) // 2])
     rows = _campaign(2.0, 0.10, near)
@@ -282,7 +284,9 @@ def test_certified_outcome_smears_across_the_edge(grid_terms):
     # exception is blamed on an uncertified start, and no certified start failed.
     starts = mc.paper_mc_starts(CORRIDOR)
     at_starts = reach.certified_mask(
-        reach.GridSlack.on(mc._points_grid(starts, CORRIDOR), CORRIDOR), math.radians(2.0), 0.1
+        reach.GridSlack.on(reach.SafeStartGrid.at_points(starts, CORRIDOR), CORRIDOR),
+        math.radians(2.0),
+        0.1,
     )
     rows = [
         _row(f"r{i}", 2.0, 0.1, p, feasible=bool(c))
