@@ -11,7 +11,8 @@ systems/pwm.py says which sample that is). The controller
 is whatever plug-in the scenario's `controller: !Tag` names (rpod.diagrams.controller_seam); it
 reads the sensed bundle and drives one of the actuation paths, which the builder wires:
 
-    truth --relative state, LVLH, attitudes, target orbit--> sensed (Multiplexer) --> controller, monitor
+    truth --relative state, LVLH, attitudes, target orbit--> sensed (Multiplexer)
+          --> controller, monitor
     path 1: controller --body wrench--> WrenchAllocator --duty--> PwmModulator --on/off--> truth
     path 2: controller --per-thruster levels--> PwmModulator --on/off--> truth
             controller --force vectors (gimbaled)--> ThrusterBank --wrench, mass flow--> truth

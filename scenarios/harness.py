@@ -56,7 +56,7 @@ DETAIL_CHARS = 4000
 MAX_WAIT_S = 3600.0  # longest single select(): a huge timeout_s is waited for in slices
 # A runner that has grown past this is retired after its run (and a fresh one started for the
 # next): each simulate() leaves ~3 MB behind (Drake systems with Python callbacks are not all
-# freed), ~6 GB over a 3,900-run campaign on 2 runners without it.
+# freed): 1-3 MB a run, several GB over a 3,900-run campaign on 2 runners without it.
 RUNNER_MAX_RSS_BYTES = 1 << 30
 
 
