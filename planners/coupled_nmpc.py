@@ -1,0 +1,620 @@
+"""Paper 001's optimal control problem (22) transcribed on Drake's MathematicalProgram.
+
+Owns: `CoupledNmpcSettings` (horizon, transcription, solver and its options), `CoupledNmpc` (the
+NLP, built once per shape and solved from a new x0 by updating bounds and data), `NmpcResult`,
+`shifted_warm_start` and the independent checker `check_plan`. Does not own: the prediction
+model, its constraints and costs (rpod.models.coupled_relative, used here as they are), the
+receding-horizon controller system that calls `solve` every T_s, or the scenario.
+
+Transcription: multiple shooting with an explicit RK4 integrator. The input is piecewise constant
+on N intervals of T_s = T / N (Sec. III-D); on each interval the state is carried from its node by
+`rk4_substeps` classical RK4 steps (default 2, so the dynamics are sampled at the two ends and the
+midpoint of each of two sub-steps: the paper's "two collocation points per interval" replaced by
+an equivalent of 4th order). Why not collocation: a collocation scheme of the paper's degree adds
+2 x 21 unknowns and 2 x 21 equalities per interval and its accuracy at T_s = 60 s is that of a
+degree-2 polynomial, while RK4 keeps the NLP at the N + 1 nodes, is 4th order, and its defect is
+one call of plain Python code whose AutoDiffXd evaluation gives the solver exact first
+derivatives of exactly what it constrains (the Hessian is IPOPT's limited-memory approximation,
+as Drake gives IPOPT no second derivatives). The defect of interval k is a generic constraint
+(`prog.AddConstraint(func, lb, ub, vars)`) over [x_k, u_k, x_k+1, c_k]; `interval_defect` is the
+function, float or AutoDiffXd.
+
+State in the NLP: the 21 entries of eq. 15 (R_TC's 9 entries, w_TC_T, p_PtPc_T, v_PtPc_T, xi_T).
+The 18 absolute target entries of the model's state (R_IT, w_IT_T, p_IT_I, v_IT_I) are reached by
+no input, so they are not decision variables: at each solve they are propagated once from x0 by
+the same RK4 in floats (the "reference"), R_IT projected back onto SO(3) (polar decomposition) at
+every node, and each interval's defect starts its RK4 from the reference node. SO(3) in the NLP:
+RK4 on R_TC's 9 entries, no re-orthonormalisation (that would make the defect non-smooth and
+inconsistent); R_TC at the nodes leaves SO(3) only by RK4's local error (reported by
+`check_plan` as the worst |R^T R - I|).
+
+Trust of the integrator: the chaser's attitude is fast against T_s (Sec. IV's thrusters give
+~0.05 rad/s^2, a 180 deg slew in ~16 s), and RK4 at 30 s steps is only accurate while the
+rotation per step stays below ~0.5 rad. `max_relative_rate_rad_s` (default 0.02 rad/s, not in the
+paper) boxes each entry of w_TC_T at the nodes 1..N so that the solver cannot exploit the
+integrator's error (with a constant torque on an interval the rate is monotone between nodes).
+
+Status (measured, 2 shared cores): from Sec. IV's start (R_TC = diag(-1, -1, 1), 113 m, 65 deg
+outside the LOS polyhedron) neither IPOPT (limited-memory Hessian; 300 iterations, 42 s) nor
+SNOPT (200 major iterations, 60-120 s) converged; from a start 20 m inside the LOS polyhedron
+IPOPT did not converge in 150 iterations (14 s) either. No converged solve is claimed here.
+
+Cost: E(x_N) of eq. 21 (a quadratic cost) + sum_k c_k + rho sum s. The integral of the stage cost
+(eq. 20) over interval k is c_k, a decision variable tied by the defect constraint to the
+quadrature state q' = F(x, u), q(t_k) = 0, integrated by the same RK4 steps as x: the integral is
+discretised to the integrator's order, and the input terms (constant on an interval) exactly.
+
+Constraints: x_0 = x0 (bounds); eq. 16 gimbal polyhedron as one sparse linear constraint on all
+inputs; eq. 17 squared, |f_k|^2 <= f_max^2, one quadratic constraint per thruster and interval;
+eq. 18 at every node softened, A_p p_k - s_k <= 0, s_k >= 0, with the L1 penalty rho sum s_k
+(`rpod.models.coupled_relative.los_slack_penalty`'s weight).
+
+Solvers: IPOPT (`IpoptSolver`) by default; SNOPT (`SnoptSolver`) on request when available. A
+failed solve is a status (`NmpcStatus`) with the solver's own word, never an exception.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import math
+import os
+import re
+import tempfile
+import time
+
+import numpy as np
+from pydrake.solvers import (
+    IpoptSolver,
+    MathematicalProgram,
+    SnoptSolver,
+    SolutionResult,
+    SolverOptions,
+)
+from scipy.integrate import solve_ivp
+
+from rpod.models import coupled_relative as cr
+from rpod.models.thrusters import gimbal_polyhedron
+
+NLP_STATE_SIZE = cr.PAPER_STATE_SIZE
+"""Entries of the state that are decision variables (eq. 15): x[:21]."""
+DEFECT_SIZE = NLP_STATE_SIZE + 1
+"""Rows of one interval's defect: 21 state entries and the stage-cost quadrature."""
+
+
+_STATE_SCALES = (
+    (cr.W_TC_T_SLICE, 1e-2),  # rad/s
+    (cr.P_PTPC_T_SLICE, 1e2),  # m
+    (cr.XI_T_SLICE, 1e4),  # m s
+)
+"""Typical magnitudes of the NLP state's groups (R_TC entries and v_PtPc_T [m/s] are ~1)."""
+
+
+class NmpcStatus(str, enum.Enum):
+    """What came of one solve."""
+
+    SOLVED = "solved"
+    MAX_ITERATIONS = "max_iterations"
+    INFEASIBLE = "infeasible"
+    SOLVER_UNAVAILABLE = "solver_unavailable"
+    FAILED = "failed"
+
+
+_STATUS = {
+    SolutionResult.kSolutionFound: NmpcStatus.SOLVED,
+    SolutionResult.kIterationLimit: NmpcStatus.MAX_ITERATIONS,
+    SolutionResult.kInfeasibleConstraints: NmpcStatus.INFEASIBLE,
+    SolutionResult.kInfeasibleOrUnbounded: NmpcStatus.INFEASIBLE,
+}
+
+
+@dataclasses.dataclass
+class CoupledNmpcSettings:
+    """The transcription and the solver (defaults: Sec. IV's N = 8, T = 480 s; IPOPT).
+
+    Args:
+        horizon_s: T of eq. 22 [s].
+        intervals: N, the number of piecewise-constant input intervals.
+        rk4_substeps: RK4 steps per interval in the defects (>= 2: module docstring).
+        solver: "ipopt" or "snopt".
+        max_iterations: IPOPT's max_iter / SNOPT's major iterations limit.
+        tolerance: IPOPT's tol and constr_viol_tol / SNOPT's major optimality and feasibility
+            tolerances.
+        los_slack_weight: rho of the L1 penalty on the LOS slacks (1 / m, per unit of cost).
+        los_half_angle_rad: the LOS polyhedron's angle (eq. 18; Sec. IV: pi / 4).
+        max_relative_rate_rad_s: a box on each entry of w_TC_T at the nodes 1..N (not in the
+            paper; module docstring, "Trust of the integrator").
+    """
+
+    horizon_s: float = cr.HORIZON_S
+    intervals: int = cr.HORIZON_INTERVALS
+    rk4_substeps: int = 2
+    solver: str = "ipopt"
+    max_iterations: int = 300
+    tolerance: float = 1e-6
+    los_slack_weight: float = cr.LOS_SLACK_WEIGHT
+    los_half_angle_rad: float = cr.LOS_HALF_ANGLE_RAD
+    max_relative_rate_rad_s: float = 0.02
+
+    def validate(self) -> None:
+        """Raises ValueError('field: message') naming the first bad field."""
+        for name in ("intervals", "rk4_substeps", "max_iterations"):
+            value = getattr(self, name)
+            if int(value) != value or value < 1:
+                raise ValueError(f"{name}: must be a positive integer, got {value!r}")
+        if self.rk4_substeps < 2:
+            raise ValueError(f"rk4_substeps: must be >= 2, got {self.rk4_substeps}")
+        if self.solver not in ("ipopt", "snopt"):
+            raise ValueError(f"solver: must be 'ipopt' or 'snopt', got {self.solver!r}")
+        for name in ("horizon_s", "tolerance", "los_slack_weight", "max_relative_rate_rad_s"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"{name}: must be positive, got {value!r}")
+        if not 0.0 < self.los_half_angle_rad < math.pi / 2:
+            raise ValueError(
+                f"los_half_angle_rad: must be in (0, pi/2), got {self.los_half_angle_rad}"
+            )
+
+
+@dataclasses.dataclass
+class NmpcResult:
+    """One solve of (22).
+
+    Attributes:
+        status: What came of it (NmpcStatus).
+        solver_message: The solver's own word (IPOPT's status name, SNOPT's info code).
+        u: The inputs (N, 24), u[k] = the eight thrust vectors in C on interval k [N].
+        x: The states at the nodes (N + 1, 39): x[:, :21] the NLP's, x[:, 21:] the target's
+            reference (module docstring).
+        slack: The LOS slacks at the nodes (N + 1, 4) [m].
+        stage_costs: c_k, the stage cost integrated over each interval (N,).
+        cost: The objective: E(x_N) + sum c_k + rho sum s.
+        interval_s: T_s [s].
+        solve_time_s: Wall time of the solver call [s].
+        iterations: The solver's iteration count (IPOPT iterations, SNOPT major iterations),
+            None when it could not be read.
+        solver: "ipopt" or "snopt".
+    """
+
+    status: NmpcStatus
+    solver_message: str
+    u: np.ndarray
+    x: np.ndarray
+    slack: np.ndarray
+    stage_costs: np.ndarray
+    cost: float
+    interval_s: float
+    solve_time_s: float
+    iterations: int | None
+    solver: str
+
+    @property
+    def solved(self) -> bool:
+        return self.status is NmpcStatus.SOLVED
+
+    @property
+    def times_s(self) -> np.ndarray:
+        """Node times from the solve's start (N + 1,) [s]."""
+        return self.interval_s * np.arange(self.x.shape[0])
+
+
+def rk4_interval(x, u, interval_s: float, substeps: int, params, weights):
+    """(x(t_k + T_s), integral of F over the interval) by `substeps` classical RK4 steps.
+
+    Args:
+        x: State (39,) at the interval's start; float or object (AutoDiffXd) array.
+        u: Input (24,), held constant.
+        interval_s: T_s [s].
+        substeps: RK4 steps.
+        params, weights: The model's data and eq. 20's weights.
+    """
+    dt = interval_s / substeps
+    q = 0.0
+    for _ in range(substeps):
+        k1 = cr.dynamics(x, u, params)
+        l1 = cr.stage_cost(x, u, weights, params)
+        x2 = x + (0.5 * dt) * k1
+        k2 = cr.dynamics(x2, u, params)
+        l2 = cr.stage_cost(x2, u, weights, params)
+        x3 = x + (0.5 * dt) * k2
+        k3 = cr.dynamics(x3, u, params)
+        l3 = cr.stage_cost(x3, u, weights, params)
+        x4 = x + dt * k3
+        k4 = cr.dynamics(x4, u, params)
+        l4 = cr.stage_cost(x4, u, weights, params)
+        x = x + (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        q = q + (dt / 6.0) * (l1 + 2.0 * l2 + 2.0 * l3 + l4)
+    return x, q
+
+
+def interval_defect(z, x_target, interval_s: float, substeps: int, params, weights):
+    """The defect of one interval (DEFECT_SIZE,), zero when z is consistent.
+
+    Args:
+        z: [x_k[:21], u_k (24), x_k+1[:21], c_k] (67,), float or AutoDiffXd.
+        x_target: The reference target state x_k[21:] (18,) at the interval's start (floats).
+
+    Returns:
+        [x_k+1[:21] - Phi(x_k, u_k)[:21], c_k - integral of F] (22,).
+    """
+    n = NLP_STATE_SIZE
+    z = np.asarray(z)
+    x_k = np.concatenate([z[:n], np.asarray(x_target, dtype=z.dtype)])
+    u_k = z[n : n + cr.INPUT_SIZE]
+    x_next = z[n + cr.INPUT_SIZE : 2 * n + cr.INPUT_SIZE]
+    c_k = z[2 * n + cr.INPUT_SIZE]
+    x_end, q = rk4_interval(x_k, u_k, interval_s, substeps, params, weights)
+    return np.concatenate([x_next - x_end[:n], [c_k - q]])
+
+
+def _project_to_so3(R: np.ndarray) -> np.ndarray:
+    """The rotation nearest to R (polar decomposition by SVD)."""
+    U, _, Vt = np.linalg.svd(R)
+    return U @ np.diag([1.0, 1.0, np.linalg.det(U @ Vt)]) @ Vt
+
+
+class CoupledNmpc:
+    """The NLP of eq. 22 (module docstring), built once, solved from any x0."""
+
+    def __init__(
+        self,
+        params: cr.CoupledRelativeParams | None = None,
+        weights: cr.CoupledNmpcWeights | None = None,
+        settings: CoupledNmpcSettings | None = None,
+    ):
+        self.params = params if params is not None else cr.CoupledRelativeParams()
+        self.weights = weights if weights is not None else cr.CoupledNmpcWeights()
+        self.settings = settings if settings is not None else CoupledNmpcSettings()
+        self.settings.validate()
+        s = self.settings
+        self.N = int(s.intervals)
+        self.interval_s = s.horizon_s / self.N
+        self.A_p = cr.los_polyhedron(self.params.p_TPt_T, s.los_half_angle_rad)
+        self._target_nodes = np.zeros((self.N + 1, cr.STATE_SIZE - NLP_STATE_SIZE))
+        self._build()
+
+    # ---------------------------------------------------------------------------- program
+
+    def _build(self) -> None:
+        N, n, m = self.N, NLP_STATE_SIZE, cr.INPUT_SIZE
+        prog = MathematicalProgram()
+        self.X = prog.NewContinuousVariables(N + 1, n, "x")
+        self.U = prog.NewContinuousVariables(N, m, "u")
+        self.C = prog.NewContinuousVariables(N, "c")
+        self.S = prog.NewContinuousVariables(N + 1, self.A_p.shape[0], "s")
+
+        # Variable scaling (SNOPT reads it; Drake's IPOPT does not support it and would warn).
+        if self.settings.solver == "snopt":
+            self._set_scaling(prog)
+
+        # x_0 = x0 (eq. 22), bounds updated at each solve.
+        self._initial = prog.AddBoundingBoxConstraint(np.zeros(n), np.zeros(n), self.X[0])
+
+        # The integrator's trust region (module docstring): |w_TC_T| entries at nodes 1..N.
+        w_max = self.settings.max_relative_rate_rad_s
+        prog.AddBoundingBoxConstraint(-w_max, w_max, self.X[1:, cr.W_TC_T_SLICE].reshape(-1))
+
+        # Defects (eq. 15 integrated over each interval), exact derivatives by AutoDiffXd.
+        zeros = np.zeros(DEFECT_SIZE)
+        for k in range(N):
+            z = np.concatenate([self.X[k], self.U[k], self.X[k + 1], [self.C[k]]])
+            prog.AddConstraint(self._defect_function(k), zeros, zeros, z, f"defect_{k}")
+
+        # Eq. 16 on every thruster and interval: one sparse linear constraint.
+        A_g, b_g = cr.gimbal_constraint_matrix(self.params.layout)
+        A_all = np.kron(np.eye(N), A_g)
+        prog.AddLinearConstraint(
+            A_all, np.full(A_all.shape[0], -np.inf), np.tile(b_g, N), self.U.reshape(-1)
+        )
+        # Eq. 17, squared (module docstring of coupled_relative, choice 4).
+        f_max = self.params.layout.max_thrusts_N
+        for k in range(N):
+            for j in range(cr.THRUSTER_COUNT):
+                prog.AddQuadraticConstraint(
+                    2.0 * np.eye(3),
+                    np.zeros(3),
+                    -np.inf,
+                    f_max[j] ** 2,
+                    self.U[k, 3 * j : 3 * j + 3],
+                )
+        # Eq. 18 at every node, softened: A_p p_k - s_k <= 0, s_k >= 0.
+        n_p = self.A_p.shape[0]
+        A_los = np.hstack([self.A_p, -np.eye(n_p)])
+        for k in range(N + 1):
+            prog.AddLinearConstraint(
+                A_los,
+                np.full(n_p, -np.inf),
+                np.zeros(n_p),
+                np.concatenate([self.X[k, cr.P_PTPC_T_SLICE], self.S[k]]),
+            )
+        prog.AddBoundingBoxConstraint(0.0, np.inf, self.S.reshape(-1))
+
+        # Cost: E(x_N) (eq. 21) + sum c_k (eq. 20 integrated) + rho sum s.
+        pv = np.concatenate([self.X[N, cr.P_PTPC_T_SLICE], self.X[N, cr.V_PTPC_T_SLICE]])
+        prog.AddQuadraticCost(2.0 * np.asarray(self.weights.P), np.zeros(6), pv, is_convex=True)
+        prog.AddLinearCost(np.ones(N), 0.0, self.C)
+        prog.AddLinearCost(
+            np.full(self.S.size, self.settings.los_slack_weight), 0.0, self.S.reshape(-1)
+        )
+        self.prog = prog
+
+    def _set_scaling(self, prog: MathematicalProgram) -> None:
+        """Typical magnitudes on the Sec. IV approach (_STATE_SCALES; u, s ~10, c ~1e4)."""
+        for sl, scale in _STATE_SCALES:
+            for var in self.X[:, sl].reshape(-1):
+                prog.SetVariableScaling(var, scale)
+        for var in np.concatenate([self.U.reshape(-1), self.S.reshape(-1)]):
+            prog.SetVariableScaling(var, 10.0)
+        for var in self.C:
+            prog.SetVariableScaling(var, 1e4)
+
+    def _defect_function(self, k: int):
+        s = self.settings
+
+        def defect(z):
+            return interval_defect(
+                z,
+                self._target_nodes[k],
+                self.interval_s,
+                s.rk4_substeps,
+                self.params,
+                self.weights,
+            )
+
+        return defect
+
+    # ---------------------------------------------------------------------------- data
+
+    def _propagate_target(self, x0: np.ndarray) -> None:
+        """The target's reference nodes: RK4 from x0, R_IT projected onto SO(3) at each node."""
+        x = np.asarray(x0, dtype=float).copy()
+        u = np.zeros(cr.INPUT_SIZE)
+        self._target_nodes[0] = x[NLP_STATE_SIZE:]
+        for k in range(self.N):
+            x, _ = rk4_interval(
+                x, u, self.interval_s, self.settings.rk4_substeps, self.params, self.weights
+            )
+            x[cr.R_IT_SLICE] = _project_to_so3(x[cr.R_IT_SLICE].reshape(3, 3)).reshape(9)
+            self._target_nodes[k + 1] = x[NLP_STATE_SIZE:]
+
+    def rollout(self, x0: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Nodes (N + 1, 39) and stage costs (N,) of the RK4 transcription from x0 under u
+        (the target part from the reference of the last `solve` or `rollout`)."""
+        self._propagate_target(x0)
+        x = np.empty((self.N + 1, cr.STATE_SIZE))
+        c = np.empty(self.N)
+        x[0] = x0
+        for k in range(self.N):
+            start = np.concatenate([x[k, :NLP_STATE_SIZE], self._target_nodes[k]])
+            x_end, c[k] = rk4_interval(
+                start, u[k], self.interval_s, self.settings.rk4_substeps, self.params, self.weights
+            )
+            x[k + 1, :NLP_STATE_SIZE] = x_end[:NLP_STATE_SIZE]
+            x[k + 1, NLP_STATE_SIZE:] = self._target_nodes[k + 1]
+        return x, c
+
+    def _slack_guess(self, x: np.ndarray) -> np.ndarray:
+        g = x[:, cr.P_PTPC_T_SLICE] @ self.A_p.T
+        return np.maximum(g, 0.0) + 1e-3
+
+    # ---------------------------------------------------------------------------- solve
+
+    def _solver(self):
+        if self.settings.solver == "snopt":
+            return SnoptSolver()
+        return IpoptSolver()
+
+    def _options(self, solver, log_path: str) -> SolverOptions:
+        s = self.settings
+        options = SolverOptions()
+        if self.settings.solver == "snopt":
+            options.SetOption(solver.id(), "Major iterations limit", int(s.max_iterations))
+            options.SetOption(solver.id(), "Major optimality tolerance", float(s.tolerance))
+            options.SetOption(solver.id(), "Major feasibility tolerance", float(s.tolerance))
+            options.SetOption(solver.id(), "Iterations limit", 1000000)
+            options.SetOption(solver.id(), "Print file", log_path)
+        else:
+            options.SetOption(solver.id(), "max_iter", int(s.max_iterations))
+            options.SetOption(solver.id(), "tol", float(s.tolerance))
+            options.SetOption(solver.id(), "constr_viol_tol", float(s.tolerance))
+            options.SetOption(solver.id(), "print_level", 0)
+            options.SetOption(solver.id(), "file_print_level", 3)
+            options.SetOption(solver.id(), "output_file", log_path)
+        return options
+
+    def _iterations(self, log_path: str) -> int | None:
+        try:
+            with open(log_path) as log:
+                text = log.read()
+        except OSError:
+            return None
+        pattern = (
+            r"No\. of major iterations\s+(\d+)"
+            if self.settings.solver == "snopt"
+            else r"Number of Iterations\.*:\s*(\d+)"
+        )
+        found = re.findall(pattern, text)
+        return int(found[-1]) if found else None
+
+    def solve(self, x0: np.ndarray, warm_start: NmpcResult | None = None) -> NmpcResult:
+        """Solves (22) from x0 (39,); warm_start: a guess (e.g. `shifted_warm_start`).
+
+        Without a guess the solver starts from the zero-thrust rollout (every defect zero).
+        """
+        x0 = np.asarray(x0, dtype=float)
+        if x0.shape != (cr.STATE_SIZE,) or not np.all(np.isfinite(x0)):
+            raise ValueError(f"x0 must be {cr.STATE_SIZE} finite numbers, got shape {x0.shape}")
+        N = self.N
+        if warm_start is None:
+            u_guess = np.zeros((N, cr.INPUT_SIZE))
+            x_guess, c_guess = self.rollout(x0, u_guess)
+        else:
+            self._propagate_target(x0)
+            u_guess = np.asarray(warm_start.u, dtype=float)
+            x_guess = np.asarray(warm_start.x, dtype=float).copy()
+            x_guess[0] = x0
+            c_guess = np.asarray(warm_start.stage_costs, dtype=float)
+        x0_nlp = x0[:NLP_STATE_SIZE]
+        self._initial.evaluator().UpdateLowerBound(x0_nlp)
+        self._initial.evaluator().UpdateUpperBound(x0_nlp)
+
+        guess = np.zeros(self.prog.num_vars())
+        for variables, values in (
+            (self.X, x_guess[:, :NLP_STATE_SIZE]),
+            (self.U, u_guess),
+            (self.C, c_guess),
+            (self.S, self._slack_guess(x_guess)),
+        ):
+            guess[self.prog.FindDecisionVariableIndices(variables.reshape(-1))] = values.reshape(-1)
+
+        solver = self._solver()
+        if not solver.available() or not solver.enabled():
+            return self._result(
+                NmpcStatus.SOLVER_UNAVAILABLE,
+                f"{self.settings.solver} unavailable",
+                None,
+                0.0,
+                None,
+                x0,
+            )
+        with tempfile.TemporaryDirectory() as folder:
+            log_path = os.path.join(folder, "solver.log")
+            options = self._options(solver, log_path)
+            start = time.perf_counter()
+            result = solver.Solve(self.prog, guess, options)
+            elapsed = time.perf_counter() - start
+            iterations = self._iterations(log_path)
+        status = _STATUS.get(result.get_solution_result(), NmpcStatus.FAILED)
+        details = result.get_solver_details()
+        if self.settings.solver == "snopt":
+            message = f"SNOPT info {details.info}"
+        else:
+            message = details.ConvertStatusToString()
+        return self._result(status, message, result, elapsed, iterations, x0)
+
+    def _result(self, status, message, result, elapsed, iterations, x0) -> NmpcResult:
+        N = self.N
+        if result is None:
+            u = np.full((N, cr.INPUT_SIZE), np.nan)
+            x_nlp = np.full((N + 1, NLP_STATE_SIZE), np.nan)
+            slack = np.full((N + 1, self.A_p.shape[0]), np.nan)
+            c = np.full(N, np.nan)
+            cost = math.nan
+        else:
+            u = result.GetSolution(self.U)
+            x_nlp = result.GetSolution(self.X)
+            slack = result.GetSolution(self.S)
+            c = result.GetSolution(self.C)
+            cost = float(result.get_optimal_cost())
+        x = np.hstack([x_nlp, self._target_nodes])
+        return NmpcResult(
+            status=status,
+            solver_message=message,
+            u=u,
+            x=x,
+            slack=slack,
+            stage_costs=c,
+            cost=cost,
+            interval_s=self.interval_s,
+            solve_time_s=elapsed,
+            iterations=iterations,
+            solver=self.settings.solver,
+        )
+
+    def shifted_warm_start(self, result: NmpcResult) -> NmpcResult:
+        """The previous solution shifted one interval: u_k <- u_k+1, x_k <- x_k+1, the last input
+        repeated and the last node carried on by the RK4 transcription under it."""
+        u = np.vstack([result.u[1:], result.u[-1:]])
+        x = np.vstack([result.x[1:], result.x[-1:]])
+        c = np.concatenate([result.stage_costs[1:], [0.0]])
+        x_end, c[-1] = rk4_interval(
+            result.x[-1],
+            result.u[-1],
+            self.interval_s,
+            self.settings.rk4_substeps,
+            self.params,
+            self.weights,
+        )
+        x[-1] = x_end
+        return dataclasses.replace(result, u=u, x=x, stage_costs=c, slack=self._slack_guess(x))
+
+
+# -------------------------------------------------------------------------------- checker
+
+
+def _integrate(params, x0, u, duration_s, rtol, atol):
+    sol = solve_ivp(
+        lambda _, x: cr.dynamics(x, u, params),
+        (0.0, duration_s),
+        x0,
+        method="DOP853",
+        rtol=rtol,
+        atol=atol,
+    )
+    return sol.y[:, -1]
+
+
+_GROUPS = {
+    "R_TC": cr.R_TC_SLICE,
+    "w_TC_T_rad_s": cr.W_TC_T_SLICE,
+    "p_PtPc_T_m": cr.P_PTPC_T_SLICE,
+    "v_PtPc_T_m_s": cr.V_PTPC_T_SLICE,
+    "xi_T_m_s": cr.XI_T_SLICE,
+}
+
+
+def check_plan(
+    result: NmpcResult, params: cr.CoupledRelativeParams, rtol: float = 1e-11, atol: float = 1e-11
+) -> dict:
+    """Re-evaluates a plan through code paths separate from the NLP.
+
+    The inputs are re-integrated on `coupled_relative.dynamics` in floats by scipy's DOP853
+    (rtol, atol), not RK4, (i) from each node over its interval (the multiple-shooting defects)
+    and (ii) from x_0 through all intervals in one chain (the trajectory the inputs fly). The
+    constraints are evaluated from their definitions: the gimbal pyramid per thruster from
+    `rpod.models.thrusters.gimbal_polyhedron` (not the NLP's block matrix), the magnitude by
+    np.linalg.norm (not squared), the LOS rows with the plan's slacks.
+
+    Returns a dict of worst values (excesses <= 0 mean satisfied):
+        defect_<group>: max |DOP853 from node k - node k+1| over k, per state group.
+        rollout_<group>: max |chained DOP853 - node k| over the nodes, per state group.
+        rollout_target_p_m: the same for the target's orbit position (the reference).
+        gimbal_excess_N: max over thrusters and intervals of A_k f_k - b_k.
+        magnitude_excess_N: max |f_k| - f_max.
+        los_excess_m: max A_p p_k - s_k; min_slack_m: min s_k; los_raw_excess_m: max A_p p_k.
+        so3_error: max |R_TC^T R_TC - I| (entries) over the nodes.
+    """
+    x, u, N = result.x, result.u, result.u.shape[0]
+    h = result.interval_s
+    report = {}
+    defects = np.zeros((N, cr.STATE_SIZE))
+    chain = np.empty((N + 1, cr.STATE_SIZE))
+    chain[0] = x[0]
+    for k in range(N):
+        defects[k] = _integrate(params, x[k], u[k], h, rtol, atol) - x[k + 1]
+        chain[k + 1] = _integrate(params, chain[k], u[k], h, rtol, atol)
+    for name, sl in _GROUPS.items():
+        report[f"defect_{name}"] = float(np.max(np.abs(defects[:, sl])))
+        report[f"rollout_{name}"] = float(np.max(np.abs(chain[:, sl] - x[:, sl])))
+    report["rollout_target_p_m"] = float(
+        np.max(np.abs(chain[:, cr.P_IT_I_SLICE] - x[:, cr.P_IT_I_SLICE]))
+    )
+
+    gimbal, magnitude = [], []
+    for k in range(N):
+        forces = u[k].reshape(cr.THRUSTER_COUNT, 3)
+        for thruster, f in zip(params.layout.thrusters, forces):
+            A, b = gimbal_polyhedron(thruster)
+            gimbal.append(np.max(A @ f - b))
+            magnitude.append(np.linalg.norm(f) - thruster.max_thrust_N)
+    report["gimbal_excess_N"] = float(np.max(gimbal))
+    report["magnitude_excess_N"] = float(np.max(magnitude))
+
+    A_p = cr.los_polyhedron(params.p_TPt_T)
+    g = x[:, cr.P_PTPC_T_SLICE] @ A_p.T
+    report["los_excess_m"] = float(np.max(g - result.slack))
+    report["min_slack_m"] = float(np.min(result.slack))
+    report["los_raw_excess_m"] = float(np.max(g))
+    R = x[:, cr.R_TC_SLICE].reshape(-1, 3, 3)
+    report["so3_error"] = float(np.max(np.abs(np.einsum("kji,kjl->kil", R, R) - np.eye(3))))
+    return report
