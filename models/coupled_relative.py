@@ -92,7 +92,7 @@ from typing import NamedTuple
 import numpy as np
 import pydrake.math
 
-from rpod.models.gravity import MU_EARTH_M3_S2, two_body_acceleration
+from rpod.models.gravity import MU_EARTH_M3_S2, circular_orbit_state, two_body_acceleration
 from rpod.models.rigid_body import angular_acceleration
 from rpod.models.thrusters import (
     ThrusterLayout,
@@ -635,3 +635,25 @@ def terminal_cost(x, weights: CoupledNmpcWeights):
     """E(x) = [p; v]^T P [p; v] of eq. 21, with p = p_PtPc_T and v = v_PtPc_T."""
     s = unpack_state(x)
     return _quadratic(np.concatenate([s.p_PtPc_T, s.v_PtPc_T]), weights.P)  # eq. 21
+
+
+def sec_iv_initial_state(params: CoupledRelativeParams | None = None) -> np.ndarray:
+    """Sec. IV's start as this model's state: the target on a circular orbit at
+    TARGET_ALTITUDE_M, R_t/e(0) = I and w^t_t/e = 0.0046 [1, 1, 1] rad/s; the chaser 116.43 m
+    away (r_c/t(0) as printed), R_c/e(0) = diag(-1, -1, 1), at rest. It reproduces the printed
+    p(0) = [-1.1394, 113.0847, -7.6204] m (tested); the printed relative velocity is garbled in
+    our copy and not reproduced."""
+    params = CoupledRelativeParams() if params is None else params
+    p_IT_I, v_IT_I = circular_orbit_state(TARGET_ALTITUDE_M, 0.0, 0.0, 0.0)
+    r_ct = np.array([0.001016052, 116.430912621, 0.020321028])
+    return relative_state_from_absolute(
+        params,
+        np.eye(3),
+        0.0046 * np.ones(3),
+        p_IT_I,
+        v_IT_I,
+        np.diag([-1.0, -1.0, 1.0]),
+        np.zeros(3),
+        p_IT_I + r_ct,
+        v_IT_I,
+    )

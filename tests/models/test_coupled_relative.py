@@ -256,20 +256,7 @@ def test_integral_state_integrates_the_feature_point_position(trajectories):
 
 def test_paper_initial_feature_point_offset_is_reproduced():
     """Sec. IV: r_c/t(0), R_t/e(0) = I, R_c/e(0) = diag(-1, -1, 1) give p(0) as printed."""
-    params = cr.CoupledRelativeParams()
-    p_IT_I, v_IT_I = circular_orbit_state(cr.TARGET_ALTITUDE_M, 0.0, 0.0, 0.0)
-    r_ct = np.array([0.001016052, 116.430912621, 0.020321028])
-    x = cr.relative_state_from_absolute(
-        params,
-        np.eye(3),
-        0.0046 * np.ones(3),
-        p_IT_I,
-        v_IT_I,
-        np.diag([-1.0, -1.0, 1.0]),
-        np.zeros(3),
-        p_IT_I + r_ct,
-        v_IT_I,
-    )
+    x = cr.sec_iv_initial_state()
     np.testing.assert_allclose(
         x[cr.P_PTPC_T_SLICE], [-1.1394, 113.0847, -7.6204], rtol=0, atol=0.5e-4
     )

@@ -15,26 +15,13 @@ from pydrake.autodiffutils import ExtractGradient, ExtractValue, InitializeAutoD
 from pydrake.math import RollPitchYaw, RotationMatrix
 
 from rpod.models import coupled_relative as cr
-from rpod.models.gravity import circular_orbit_state
 from rpod.models.thrusters import thruster_frame_C
 from rpod.planners import coupled_nmpc as cn
 
 
 def _sec_iv_start(params: cr.CoupledRelativeParams) -> np.ndarray:
-    """Paper 001 Sec. IV's start, built as tests/models/test_coupled_relative.py builds it."""
-    p_IT_I, v_IT_I = circular_orbit_state(cr.TARGET_ALTITUDE_M, 0.0, 0.0, 0.0)
-    r_ct = np.array([0.001016052, 116.430912621, 0.020321028])
-    return cr.relative_state_from_absolute(
-        params,
-        np.eye(3),
-        0.0046 * np.ones(3),
-        p_IT_I,
-        v_IT_I,
-        np.diag([-1.0, -1.0, 1.0]),
-        np.zeros(3),
-        p_IT_I + r_ct,
-        v_IT_I,
-    )
+    """Paper 001 Sec. IV's start (rpod.models.coupled_relative.sec_iv_initial_state)."""
+    return cr.sec_iv_initial_state(params)
 
 
 def _near_start(params: cr.CoupledRelativeParams) -> np.ndarray:
