@@ -38,6 +38,13 @@ Status (measured, 2 shared cores): from Sec. IV's start (R_TC = diag(-1, -1, 1),
 outside the LOS polyhedron) neither IPOPT (limited-memory Hessian; 300 iterations, 42 s) nor
 SNOPT (200 major iterations, 60-120 s) converged; from a start 20 m inside the LOS polyhedron
 IPOPT did not converge in 150 iterations (14 s) either. No converged solve is claimed here.
+Measured since, from the start 20 m inside the polyhedron, N = 8: the horizon decides it. IPOPT
+converges at T = 80 s (~25 iterations, 3.3 s) and 160 s (~75 iterations, 7.1 s) but not at 240 s
+(200 iterations) and blows up at 320 s; at 480 s none of 8 RK4 sub-steps, objective or variable
+scaling, other rate boxes, a nominal-thrust guess, or three shooting nodes per interval helped.
+Only IPOPT's SR1 quasi-Newton update with `mu_strategy monotone` kept it stable (objective falling,
+still unconverged after 500 iterations). Next: exact Hessians (Drake passes IPOPT none), or a
+continuation in the horizon from a converged 160 s solve.
 
 Cost: E(x_N) of eq. 21 (a quadratic cost) + sum_k c_k + rho sum s. The integral of the stage cost
 (eq. 20) over interval k is c_k, a decision variable tied by the defect constraint to the
