@@ -48,13 +48,13 @@ import logging
 import mmap
 import os
 import pathlib
-import platform
 import re
 import sys
 import tempfile
 import time
 
 import numpy as np
+from machine import machine_line  # benchmarks/machine.py, beside this script
 from pydrake.solvers import ClarabelSolver, CommonSolverOption, SolverOptions
 
 from rpod.models.cw import passively_safe_state
@@ -425,31 +425,18 @@ def bench_plans(config, starts):
 # ---------------------------------------------------------------------------------------------
 
 
-def machine_line() -> str:
-    cpu = "?"
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    cpu = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
+def solver_versions() -> str:
+    """The Clarabel builds this benchmark compares (Drake's and the Python package's)."""
     clarabel_py = (
         importlib.metadata.version("clarabel") if clarabel is not None else "not installed"
     )
-    drake = importlib.metadata.version("drake")
-    return (
-        f"{platform.machine()}, {cpu}, {os.cpu_count()} cores, Python {platform.python_version()}, "
-        f"drake {drake} (bundles Clarabel {drake_clarabel_version()}), "
-        f"clarabel (Python) {clarabel_py}"
-    )
+    return f"Clarabel {drake_clarabel_version()} in drake, clarabel (Python) {clarabel_py}"
 
 
 def report(args, load_start, load_end, p2_rows, p2_notes, scp_rows, plan_build, plans, elapsed):
     command = "python benchmarks/bench_soft_capture.py " + " ".join(sys.argv[1:])
     out = ["# Soft-capture planner benchmark", ""]
-    out.append(f"Machine: {machine_line()}.")
+    out.append(f"Machine: {machine_line()}; {solver_versions()}.")
     out.append(f"Command: `{command.strip()}`; {elapsed:.0f} s in all.")
     out.append(
         f"The machine was shared with other work: 1/5/15-minute load average "
