@@ -30,6 +30,7 @@ from rpod.diagrams.controller_seam import (
     MissionOutcome,
     register_controller,
 )
+from rpod.diagrams.plots import chaser_in_target_frame
 from rpod.diagrams.plots_los import VIOLATION_TOLERANCE_M, violation_summary
 from rpod.diagrams.scenario import ScenarioError
 from rpod.models.frames import rotations_from_wxyz
@@ -78,14 +79,6 @@ def applied_acceleration_L(log: dict) -> np.ndarray:
     R_IL = rotations_from_wxyz(log["q_IL"])
     f_I = np.einsum("nij,nj->ni", R_IC, log["body_wrench"][:, 3:6])
     return np.einsum("nji,nj->ni", R_IL, f_I) / log["chaser_mass_kg"][:, None]
-
-
-def body_frame_positions(log: dict) -> np.ndarray:
-    """p_TC_T at every sample (N, 3) [m]."""
-    R_IT = rotations_from_wxyz(log["q_IT"])
-    R_IL = rotations_from_wxyz(log["q_IL"])
-    p_I = np.einsum("nij,nj->ni", R_IL, log["p_LC_L"])
-    return np.einsum("nji,nj->ni", R_IT, p_I)
 
 
 class LosCorridorPlugin(ControllerPlugin):
@@ -191,7 +184,7 @@ class LosCorridorPlugin(ControllerPlugin):
         log["los_fallback"] = status[:, 2].astype(np.int64)
         log["los_mpc_iterations"] = status[:, 3].astype(np.int64)
         log["los_mpc_solve_time_s"] = status[:, 4]
-        p_T = body_frame_positions(log)
+        p_T = chaser_in_target_frame(log["q_IT"], log["q_IL"], log["p_LC_L"])
         log["los_range_m"] = np.linalg.norm(p_T, axis=1)
         omega = float(np.linalg.norm(np.radians(scenario.target.w_IT_T_deg_s)))
         r_sync = sync_range_m(config.a_max_m_s2, omega) if omega > 0 else math.inf
