@@ -80,11 +80,10 @@ from rpod.diagrams.plots import (
     _time_edges,
     _title,
 )
-from rpod.models.los_corridor import LosCorridor
+from rpod.models.los_corridor import VIOLATION_TOLERANCE_M, LosCorridor
 
 _logger = logging.getLogger(__name__)
 
-VIOLATION_TOLERANCE_M = 1e-3  # paper 004 Sec. 9: a violation deeper than this fails a run
 _MIN_FACES = 3  # n_f of the narrowest pyramid (LosCorridor's own bound)
 _REGIMES = {
     0: ("far approach", "tab:blue"),

@@ -19,6 +19,8 @@ import math
 
 import numpy as np
 
+VIOLATION_TOLERANCE_M = 1e-3  # paper 004 Sec. 9: a chaser further outside than this violates
+
 
 @dataclasses.dataclass(frozen=True)
 class LosCorridor:

@@ -66,14 +66,13 @@ import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.spatial import ConvexHull, Delaunay, QhullError, cKDTree
 
-from rpod.models.los_corridor import LosCorridor, sync_range_m
+from rpod.models.los_corridor import VIOLATION_TOLERANCE_M, LosCorridor, sync_range_m
 from rpod.planners import reachability as reach
 
 MC_Y_RANGE_M = (20.0, 300.0)  # Sec. 9: 15 values of y_T
 MC_Y_COUNT = 15
 MC_X_COUNT = 13  # Sec. 9: 13 values of x_T per y_T
 MC_X_FILL = 0.95  # x_T within 0.95 tan(alpha_c) y_T
-VIOLATION_TOLERANCE_M = 1e-3  # Sec. 9: epsilon
 THRESHOLD = 0.5  # choice 2: feasible where the interpolated outcome exceeds this
 
 _CHUNK = 8192  # queries per pass of the cavity search

@@ -53,7 +53,7 @@ from pydrake.systems.framework import EventStatus, LeafSystem
 
 from rpod.models.cw import cw_acceleration
 from rpod.models.frames import rotation_from_wxyz
-from rpod.models.los_corridor import LosCorridor, sync_range_m
+from rpod.models.los_corridor import VIOLATION_TOLERANCE_M, LosCorridor, sync_range_m
 from rpod.planners.los_corridor_mpc import LosCorridorMpc, LosMpcSettings, MpcStatus
 from rpod.planners.los_prediction import BodyFrameStep, TargetState, cw_body_frame_matrices
 from rpod.systems.sensed import Sensed, declare_sensed_input
@@ -79,7 +79,6 @@ class Fallback(enum.IntEnum):
 # MpcStatus -> the integer the log holds (-1: no solve this step).
 MPC_STATUS_CODES = {status: index for index, status in enumerate(MpcStatus)}
 PREDICTIONS = ("online", "cw")
-VIOLATION_STOP_M = 1e-3  # paper 004 Sec. 9's tolerance
 
 
 @dataclasses.dataclass
@@ -96,7 +95,7 @@ class LosGuidanceConfig:
         hold_tolerance_m: epsilon of the hold regime [m].
         hold_speed_m_s: v_switch of the hold regime [m/s].
         stop_at_violation: end the run at the first control step that finds the chaser
-            outside the corridor by more than VIOLATION_STOP_M (paper 004 Sec. 9 classifies
+            outside the corridor by more than VIOLATION_TOLERANCE_M (paper 004 Sec. 9 classifies
             such a run infeasible whatever follows: a Monte Carlo campaign need not fly it on).
         fallback_plan_steps: how many steps of the last plan a failed QP may follow (open
             loop) before the last resort (module docstring).
@@ -445,7 +444,7 @@ class LosGuidance(LeafSystem):
         state.get_mutable_abstract_state(self._plan).set_value(plan)
         if config.stop_at_violation:
             outside = -float(np.min(self.corridor.slack(view.p_T) / self._row_norms))
-            if outside > VIOLATION_STOP_M:
+            if outside > VIOLATION_TOLERANCE_M:
                 return EventStatus.ReachedTermination(
                     self, f"corridor violated by {outside:.3f} m at t = {t:.1f} s"
                 )

@@ -31,10 +31,10 @@ from rpod.diagrams.controller_seam import (
     register_controller,
 )
 from rpod.diagrams.plots import chaser_in_target_frame
-from rpod.diagrams.plots_los import VIOLATION_TOLERANCE_M, violation_summary
+from rpod.diagrams.plots_los import violation_summary
 from rpod.diagrams.scenario import ScenarioError
 from rpod.models.frames import rotations_from_wxyz
-from rpod.models.los_corridor import sync_range_m
+from rpod.models.los_corridor import VIOLATION_TOLERANCE_M, sync_range_m
 from rpod.planners.los_corridor_mpc import MpcStatus
 from rpod.systems.acceleration_to_wrench import AccelerationToWrench
 from rpod.systems.los_guidance import (
