@@ -1,66 +1,68 @@
-"""Paper 001's optimal control problem (22) transcribed on Drake's MathematicalProgram.
+"""Paper 001's optimal control problem (22): its transcription, and the solvers that solve it.
 
 Owns: `CoupledNmpcSettings` (horizon, transcription, solver and its options), `CoupledNmpc` (the
-NLP, built once per shape and solved from a new x0 by updating bounds and data), `NmpcResult`,
-`shifted_warm_start` and the independent checker `check_plan`. Does not own: the prediction
-model, its constraints and costs (rpod.models.coupled_relative, used here as they are), the
-receding-horizon controller system that calls `solve` every T_s, or the scenario.
+problem, built once per shape and solved from a new x0), `NmpcResult`, `shifted_warm_start` and
+the independent checker `check_plan`. Does not own: the prediction model, its constraints and
+costs (rpod.models.coupled_relative, used as they are), the vectorised transcription and its
+derivatives (rpod.planners.coupled_shooting), the SQP algorithm (rpod.planners.coupled_sqp), the
+receding-horizon controller system, or the scenario.
 
 Transcription: multiple shooting with an explicit RK4 integrator. The input is piecewise constant
 on N intervals of T_s = T / N (Sec. III-D); on each interval the state is carried from its node by
-`rk4_substeps` classical RK4 steps (default 2, so the dynamics are sampled at the two ends and the
-midpoint of each of two sub-steps: the paper's "two collocation points per interval" replaced by
-an equivalent of 4th order). Why not collocation: a collocation scheme of the paper's degree adds
+`rk4_substeps` classical RK4 steps (default 2: the dynamics sampled at the two ends and the
+midpoint of each sub-step, the paper's "two collocation points per interval" replaced by an
+equivalent of 4th order). Why not collocation: a collocation scheme of the paper's degree adds
 2 x 21 unknowns and 2 x 21 equalities per interval and its accuracy at T_s = 60 s is that of a
-degree-2 polynomial, while RK4 keeps the NLP at the N + 1 nodes, is 4th order, and its defect is
-one call of plain Python code whose AutoDiffXd evaluation gives the solver exact first
-derivatives of exactly what it constrains (the Hessian is IPOPT's limited-memory approximation,
-as Drake gives IPOPT no second derivatives). The defect of interval k is a generic constraint
-(`prog.AddConstraint(func, lb, ub, vars)`) over [x_k, u_k, x_k+1, c_k]; `interval_defect` is the
-function, float or AutoDiffXd.
+degree-2 polynomial, while RK4 keeps the NLP at the N + 1 nodes and is 4th order.
+`interval_defect` (scalar-generic: floats or AutoDiffXd) is the reference definition of one
+interval's defect; the solvers evaluate the same numbers for all intervals at once, with exact
+Jacobians by complex-step differentiation (rpod.planners.coupled_shooting, tested equal).
 
 State in the NLP: the 21 entries of eq. 15 (R_TC's 9 entries, w_TC_T, p_PtPc_T, v_PtPc_T, xi_T).
 The 18 absolute target entries of the model's state (R_IT, w_IT_T, p_IT_I, v_IT_I) are reached by
 no input, so they are not decision variables: at each solve they are propagated once from x0 by
-the same RK4 in floats (the "reference"), R_IT projected back onto SO(3) (polar decomposition) at
-every node, and each interval's defect starts its RK4 from the reference node. SO(3) in the NLP:
-RK4 on R_TC's 9 entries, no re-orthonormalisation (that would make the defect non-smooth and
-inconsistent); R_TC at the nodes leaves SO(3) only by RK4's local error (reported by
-`check_plan` as the worst |R^T R - I|).
+the same RK4 (the "reference"), and each interval starts its RK4 from the reference node.
+
+SO(3) in the transcription: re-orthonormalisation. At the end of every interval R_TC (and the
+reference's R_IT) is carried back onto SO(3) by three Newton-Schulz steps of the polar
+decomposition (`coupled_shooting.polar_newton_schulz`): a polynomial, so the defect stays smooth
+and its exact derivatives pass through it. Without it RK4's drift at 30 s steps through the
+Sec. IV slew left the nodes 2.4e-2 off SO(3), and real-time iterations, which re-linearise about
+their own previous answer, compounded it until they diverged.
 
 Trust of the integrator: the chaser's attitude is fast against T_s (Sec. IV's thrusters give
 ~0.05 rad/s^2, a 180 deg slew in ~16 s), and RK4 at 30 s steps is only accurate while the
 rotation per step stays below ~0.5 rad. `max_relative_rate_rad_s` (default 0.02 rad/s, not in the
 paper) boxes each entry of w_TC_T at the nodes 1..N so that the solver cannot exploit the
 integrator's error (with a constant torque on an interval the rate is monotone between nodes).
+Even so, the transcription is coarse during the slew: against DOP853 at 1e-11 the Sec. IV plan's
+defects are 2.6e-2 in R_TC and 6 cm in p (`check_plan`); the closed loop corrects them.
 
-Status (measured, 2 shared cores): from Sec. IV's start (R_TC = diag(-1, -1, 1), 113 m, 65 deg
-outside the LOS polyhedron) neither IPOPT (limited-memory Hessian; 300 iterations, 42 s) nor
-SNOPT (200 major iterations, 60-120 s) converged; from a start 20 m inside the LOS polyhedron
-IPOPT did not converge in 150 iterations (14 s) either. No converged solve is claimed here.
-Measured since, from the start 20 m inside the polyhedron, N = 8: the horizon decides it. IPOPT
-converges at T = 80 s (~25 iterations, 3.3 s) and 160 s (~75 iterations, 7.1 s) but not at 240 s
-(200 iterations) and blows up at 320 s; at 480 s none of 8 RK4 sub-steps, objective or variable
-scaling, other rate boxes, a nominal-thrust guess, or three shooting nodes per interval helped.
-Only IPOPT's SR1 quasi-Newton update with `mu_strategy monotone` kept it stable (objective falling,
-still unconverged after 500 iterations). Next: exact Hessians (Drake passes IPOPT none), or a
-continuation in the horizon from a converged 160 s solve.
+Cost: E(x_N) of eq. 21 + sum_k c_k + rho sum s. The integral of the stage cost (eq. 20) over
+interval k is integrated by the same RK4 steps as x (c_k is a decision variable tied to it by the
+defect in the IPOPT/SNOPT program; the SQP evaluates it directly).
 
-Cost: E(x_N) of eq. 21 (a quadratic cost) + sum_k c_k + rho sum s. The integral of the stage cost
-(eq. 20) over interval k is c_k, a decision variable tied by the defect constraint to the
-quadrature state q' = F(x, u), q(t_k) = 0, integrated by the same RK4 steps as x: the integral is
-discretised to the integrator's order, and the input terms (constant on an interval) exactly.
+Constraints: x_0 = x0; eq. 16 gimbal polyhedron (linear); eq. 17 squared, |f_k|^2 <= f_max^2
+(the SQP linearises it at each iteration); eq. 18 at every node softened, A_p p_k - s_k <= 0,
+s_k >= 0, with the L1 penalty rho sum s_k; the rate box above.
 
-Constraints: x_0 = x0 (bounds); eq. 16 gimbal polyhedron as one sparse linear constraint on all
-inputs; eq. 17 squared, |f_k|^2 <= f_max^2, one quadratic constraint per thruster and interval;
-eq. 18 at every node softened, A_p p_k - s_k <= 0, s_k >= 0, with the L1 penalty rho sum s_k
-(`rpod.models.coupled_relative.los_slack_penalty`'s weight).
+Solvers (`CoupledNmpcSettings.solver`):
+- "sqp": Gauss-Newton SQP with OSQP subproblems (rpod.planners.coupled_sqp), to convergence. The
+  solver that converges on the paper's T = 480 s: from Sec. IV's cold start in ~30 iterations
+  (~1.2 s), warm-started in the closed loop in 4-6 iterations.
+- "rti": one SQP iteration per solve from the shifted previous solution (the first solve, with
+  no previous solution, is run to convergence).
+- "ipopt" (the paper's solver) and "snopt" through Drake's MathematicalProgram. Drake hands
+  IPOPT no second derivatives (limited-memory quasi-Newton) and SNOPT its own quasi-Newton
+  Hessian. Measured (2 shared cores): neither converges on T = 480 s from Sec. IV's start, IPOPT
+  not from a warm start one interval on either (200 iterations, 34 s), while started at the SQP's
+  answer IPOPT (tolerance 1e-3) confirms it (same cost to 1e-7). IPOPT converges on short
+  horizons only: from a start 20 m inside the LOS polyhedron at T = 80 s (~25 iterations) and
+  160 s (~75), not at 240 s or beyond (none of 8 RK4 sub-steps, scaling, other rate boxes, a
+  nominal-thrust guess, three shooting nodes per interval or SR1 updates helped).
 
-Solvers: IPOPT (`IpoptSolver`) by default; SNOPT (`SnoptSolver`) on request when available. A
-failed solve is a status (`NmpcStatus`) with the solver's own word, never an exception.
+A failed solve is a status (`NmpcStatus`) with the solver's own word, never an exception.
 """
-
-from __future__ import annotations
 
 import dataclasses
 import enum
@@ -71,6 +73,7 @@ import tempfile
 import time
 
 import numpy as np
+from pydrake.autodiffutils import ExtractGradient, ExtractValue, InitializeAutoDiff
 from pydrake.solvers import (
     IpoptSolver,
     MathematicalProgram,
@@ -82,6 +85,8 @@ from scipy.integrate import solve_ivp
 
 from rpod.models import coupled_relative as cr
 from rpod.models.thrusters import gimbal_polyhedron
+from rpod.planners import coupled_shooting as cs
+from rpod.planners.coupled_sqp import CoupledSqp, SqpSettings
 
 NLP_STATE_SIZE = cr.PAPER_STATE_SIZE
 """Entries of the state that are decision variables (eq. 15): x[:21]."""
@@ -101,11 +106,18 @@ class NmpcStatus(str, enum.Enum):
     """What came of one solve."""
 
     SOLVED = "solved"
+    ACCEPTABLE = "acceptable"
+    RTI_STEP = "rti_step"
     MAX_ITERATIONS = "max_iterations"
     INFEASIBLE = "infeasible"
     SOLVER_UNAVAILABLE = "solver_unavailable"
     FAILED = "failed"
 
+
+USABLE_STATUSES = (NmpcStatus.SOLVED, NmpcStatus.ACCEPTABLE, NmpcStatus.RTI_STEP)
+"""Statuses whose plan is flown. ACCEPTABLE: the SQP stopped at its iteration limit at a point
+whose defects and force excess are within `SqpSettings.acceptable_defect` (IPOPT's notion of
+"solved to an acceptable level"); logged as such, never as SOLVED."""
 
 _STATUS = {
     SolutionResult.kSolutionFound: NmpcStatus.SOLVED,
@@ -113,6 +125,9 @@ _STATUS = {
     SolutionResult.kInfeasibleConstraints: NmpcStatus.INFEASIBLE,
     SolutionResult.kInfeasibleOrUnbounded: NmpcStatus.INFEASIBLE,
 }
+
+
+SOLVERS = ("ipopt", "snopt", "sqp", "rti")
 
 
 @dataclasses.dataclass
@@ -123,14 +138,16 @@ class CoupledNmpcSettings:
         horizon_s: T of eq. 22 [s].
         intervals: N, the number of piecewise-constant input intervals.
         rk4_substeps: RK4 steps per interval in the defects (>= 2: module docstring).
-        solver: "ipopt" or "snopt".
-        max_iterations: IPOPT's max_iter / SNOPT's major iterations limit.
+        solver: "ipopt", "snopt", "sqp" (Gauss-Newton SQP to convergence) or "rti" (one SQP
+            iteration per solve from the warm start: rpod.planners.coupled_sqp).
+        max_iterations: IPOPT's max_iter / SNOPT's major iterations limit / SQP iterations.
         tolerance: IPOPT's tol and constr_viol_tol / SNOPT's major optimality and feasibility
             tolerances.
         los_slack_weight: rho of the L1 penalty on the LOS slacks (1 / m, per unit of cost).
         los_half_angle_rad: the LOS polyhedron's angle (eq. 18; Sec. IV: pi / 4).
         max_relative_rate_rad_s: a box on each entry of w_TC_T at the nodes 1..N (not in the
             paper; module docstring, "Trust of the integrator").
+        sqp: The SQP's own settings (its max_iterations is replaced by `max_iterations`).
     """
 
     horizon_s: float = cr.HORIZON_S
@@ -142,6 +159,7 @@ class CoupledNmpcSettings:
     los_slack_weight: float = cr.LOS_SLACK_WEIGHT
     los_half_angle_rad: float = cr.LOS_HALF_ANGLE_RAD
     max_relative_rate_rad_s: float = 0.02
+    sqp: SqpSettings = dataclasses.field(default_factory=SqpSettings)
 
     def validate(self) -> None:
         """Raises ValueError('field: message') naming the first bad field."""
@@ -151,8 +169,8 @@ class CoupledNmpcSettings:
                 raise ValueError(f"{name}: must be a positive integer, got {value!r}")
         if self.rk4_substeps < 2:
             raise ValueError(f"rk4_substeps: must be >= 2, got {self.rk4_substeps}")
-        if self.solver not in ("ipopt", "snopt"):
-            raise ValueError(f"solver: must be 'ipopt' or 'snopt', got {self.solver!r}")
+        if self.solver not in SOLVERS:
+            raise ValueError(f"solver: must be one of {SOLVERS}, got {self.solver!r}")
         for name in ("horizon_s", "tolerance", "los_slack_weight", "max_relative_rate_rad_s"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
@@ -200,6 +218,11 @@ class NmpcResult:
         return self.status is NmpcStatus.SOLVED
 
     @property
+    def usable(self) -> bool:
+        """Whether the plan's first input may be flown (a controller falls back otherwise)."""
+        return self.status in USABLE_STATUSES and bool(np.all(np.isfinite(self.u)))
+
+    @property
     def times_s(self) -> np.ndarray:
         """Node times from the solve's start (N + 1,) [s]."""
         return self.interval_s * np.arange(self.x.shape[0])
@@ -231,6 +254,9 @@ def rk4_interval(x, u, interval_s: float, substeps: int, params, weights):
         l4 = cr.stage_cost(x4, u, weights, params)
         x = x + (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
         q = q + (dt / 6.0) * (l1 + 2.0 * l2 + 2.0 * l3 + l4)
+    x = np.array(x, copy=True)  # both rotations back onto SO(3) (coupled_shooting's docstring)
+    for sl in (cr.R_TC_SLICE, cr.R_IT_SLICE):
+        x[sl] = cs.polar_newton_schulz(x[sl].reshape(3, 3)).reshape(9)
     return x, q
 
 
@@ -254,12 +280,6 @@ def interval_defect(z, x_target, interval_s: float, substeps: int, params, weigh
     return np.concatenate([x_next - x_end[:n], [c_k - q]])
 
 
-def _project_to_so3(R: np.ndarray) -> np.ndarray:
-    """The rotation nearest to R (polar decomposition by SVD)."""
-    U, _, Vt = np.linalg.svd(R)
-    return U @ np.diag([1.0, 1.0, np.linalg.det(U @ Vt)]) @ Vt
-
-
 class CoupledNmpc:
     """The NLP of eq. 22 (module docstring), built once, solved from any x0."""
 
@@ -278,7 +298,22 @@ class CoupledNmpc:
         self.interval_s = s.horizon_s / self.N
         self.A_p = cr.los_polyhedron(self.params.p_TPt_T, s.los_half_angle_rad)
         self._target_nodes = np.zeros((self.N + 1, cr.STATE_SIZE - NLP_STATE_SIZE))
-        self._build()
+        if s.solver in ("sqp", "rti"):
+            self.prog = None
+            self._sqp: CoupledSqp | None = CoupledSqp(
+                self.params,
+                self.weights,
+                self.N,
+                self.interval_s,
+                s.rk4_substeps,
+                self.A_p,
+                s.los_slack_weight,
+                s.max_relative_rate_rad_s,
+                dataclasses.replace(s.sqp, max_iterations=int(s.max_iterations)),
+            )
+        else:
+            self._sqp = None
+            self._build()
 
     # ---------------------------------------------------------------------------- program
 
@@ -356,33 +391,51 @@ class CoupledNmpc:
             prog.SetVariableScaling(var, 1e4)
 
     def _defect_function(self, k: int):
-        s = self.settings
+        """Interval k's defect for the NLP: values and exact Jacobians from the vectorised
+        complex-step transcription (rpod.planners.coupled_shooting), the same numbers as
+        `interval_defect` (tested) at ~1 ms instead of ~12 ms per AutoDiffXd call."""
 
         def defect(z):
-            return interval_defect(
-                z,
-                self._target_nodes[k],
-                self.interval_s,
-                s.rk4_substeps,
-                self.params,
-                self.weights,
-            )
+            z = np.asarray(z)
+            if z.dtype != object:
+                return self._defect_and_jacobian(k, z, derivatives=False)[0]
+            value, J = self._defect_and_jacobian(k, ExtractValue(z).reshape(-1))
+            return InitializeAutoDiff(value, J @ ExtractGradient(z)).reshape(-1)
 
         return defect
+
+    def _defect_and_jacobian(self, k: int, z: np.ndarray, derivatives: bool = True):
+        n, m = NLP_STATE_SIZE, cr.INPUT_SIZE
+        x_k, u_k = z[None, :n], z[None, n : n + m]
+        x_next, c_k = z[n + m : 2 * n + m], z[2 * n + m]
+        shooting = cs.shoot(
+            x_k,
+            u_k,
+            self._target_nodes[k : k + 1],
+            self.interval_s,
+            self.settings.rk4_substeps,
+            self.params,
+            self.weights,
+            derivatives,
+        )
+        value = np.concatenate([x_next - shooting.x_end[0], [c_k - shooting.q[0]]])
+        if not derivatives:
+            return value, None
+        J = np.zeros((DEFECT_SIZE, z.size))
+        J[:n, :n] = -shooting.A[0]
+        J[:n, n : n + m] = -shooting.B[0]
+        J[:n, n + m : 2 * n + m] = np.eye(n)
+        J[n, : n + m] = -cs.cost_gradient(shooting, u_k, self.weights, self.params)[0]
+        J[n, 2 * n + m] = 1.0
+        return value, J
 
     # ---------------------------------------------------------------------------- data
 
     def _propagate_target(self, x0: np.ndarray) -> None:
         """The target's reference nodes: RK4 from x0, R_IT projected onto SO(3) at each node."""
-        x = np.asarray(x0, dtype=float).copy()
-        u = np.zeros(cr.INPUT_SIZE)
-        self._target_nodes[0] = x[NLP_STATE_SIZE:]
-        for k in range(self.N):
-            x, _ = rk4_interval(
-                x, u, self.interval_s, self.settings.rk4_substeps, self.params, self.weights
-            )
-            x[cr.R_IT_SLICE] = _project_to_so3(x[cr.R_IT_SLICE].reshape(3, 3)).reshape(9)
-            self._target_nodes[k + 1] = x[NLP_STATE_SIZE:]
+        self._target_nodes[:] = cs.target_reference(
+            x0, self.N, self.interval_s, self.settings.rk4_substeps, self.params
+        )
 
     def rollout(self, x0: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Nodes (N + 1, 39) and stage costs (N,) of the RK4 transcription from x0 under u
@@ -391,13 +444,20 @@ class CoupledNmpc:
         x = np.empty((self.N + 1, cr.STATE_SIZE))
         c = np.empty(self.N)
         x[0] = x0
+        x[:, NLP_STATE_SIZE:] = self._target_nodes
         for k in range(self.N):
-            start = np.concatenate([x[k, :NLP_STATE_SIZE], self._target_nodes[k]])
-            x_end, c[k] = rk4_interval(
-                start, u[k], self.interval_s, self.settings.rk4_substeps, self.params, self.weights
+            shooting = cs.shoot(
+                x[k : k + 1, :NLP_STATE_SIZE],
+                np.asarray(u[k : k + 1], dtype=float),
+                self._target_nodes[k : k + 1],
+                self.interval_s,
+                self.settings.rk4_substeps,
+                self.params,
+                self.weights,
+                derivatives=False,
             )
-            x[k + 1, :NLP_STATE_SIZE] = x_end[:NLP_STATE_SIZE]
-            x[k + 1, NLP_STATE_SIZE:] = self._target_nodes[k + 1]
+            x[k + 1, :NLP_STATE_SIZE] = shooting.x_end[0]
+            c[k] = shooting.q[0]
         return x, c
 
     def _slack_guess(self, x: np.ndarray) -> np.ndarray:
@@ -455,6 +515,17 @@ class CoupledNmpc:
         if warm_start is None:
             u_guess = np.zeros((N, cr.INPUT_SIZE))
             x_guess, c_guess = self.rollout(x0, u_guess)
+        elif self.settings.solver == "rti":
+            # RTI linearises about the shifted previous solution with R_TC projected back onto
+            # SO(3) at every node: the previous QP's full step (no line search checked it)
+            # leaves R_TC off SO(3) by its linearisation error, which compounds step to step.
+            self._propagate_target(x0)
+            u_guess = np.asarray(warm_start.u, dtype=float)
+            x_guess = np.asarray(warm_start.x, dtype=float).copy()
+            x_guess[0] = x0
+            R = cs.project_to_so3_batch(x_guess[1:, cr.R_TC_SLICE].reshape(-1, 3, 3))
+            x_guess[1:, cr.R_TC_SLICE] = R.reshape(-1, 9)
+            c_guess = np.asarray(warm_start.stage_costs, dtype=float)
         else:
             self._propagate_target(x0)
             u_guess = np.asarray(warm_start.u, dtype=float)
@@ -462,6 +533,8 @@ class CoupledNmpc:
             x_guess[0] = x0
             c_guess = np.asarray(warm_start.stage_costs, dtype=float)
         x0_nlp = x0[:NLP_STATE_SIZE]
+        if self._sqp is not None:
+            return self._solve_sqp(x0, x_guess, u_guess, cold=warm_start is None)
         self._initial.evaluator().UpdateLowerBound(x0_nlp)
         self._initial.evaluator().UpdateUpperBound(x0_nlp)
 
@@ -498,6 +571,51 @@ class CoupledNmpc:
         else:
             message = details.ConvertStatusToString()
         return self._result(status, message, result, elapsed, iterations, x0)
+
+    def _solve_sqp(self, x0, x_guess, u_guess, cold: bool) -> NmpcResult:
+        """SQP to convergence, or one RTI step (rpod.planners.coupled_sqp)."""
+        # RTI's first problem (no previous solution to step from) is solved to convergence.
+        real_time = self.settings.solver == "rti" and not cold
+        start = time.perf_counter()
+        out = self._sqp.run(
+            x0[:NLP_STATE_SIZE],
+            x_guess[:, :NLP_STATE_SIZE],
+            u_guess,
+            self._slack_guess(x_guess),
+            self._target_nodes,
+            real_time=real_time,
+            cold=cold,
+        )
+        elapsed = time.perf_counter() - start
+        if real_time and not out.qp_failed:
+            status = NmpcStatus.RTI_STEP
+        elif out.converged:
+            status = NmpcStatus.SOLVED
+        elif out.acceptable:
+            status = NmpcStatus.ACCEPTABLE
+        elif out.qp_failed:
+            status = NmpcStatus.FAILED
+        else:
+            status = NmpcStatus.MAX_ITERATIONS
+        pv = out.x[self.N, 12:18]
+        cost = float(
+            np.sum(out.q)
+            + pv @ np.asarray(self.weights.P) @ pv
+            + self.settings.los_slack_weight * np.sum(out.s)
+        )
+        return NmpcResult(
+            status=status,
+            solver_message=out.message,
+            u=out.u,
+            x=np.hstack([out.x, self._target_nodes]),
+            slack=out.s,
+            stage_costs=out.q,
+            cost=cost,
+            interval_s=self.interval_s,
+            solve_time_s=elapsed,
+            iterations=out.iterations,
+            solver=self.settings.solver,
+        )
 
     def _result(self, status, message, result, elapsed, iterations, x0) -> NmpcResult:
         N = self.N
