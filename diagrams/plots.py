@@ -16,11 +16,18 @@ only for a run that logged los_* keys):
   los_corridor.png             range and regime, distance to each corridor face, commanded and
                                applied acceleration, MPC status and fallback vs time.
   los_body_frame.png           chaser path in T on the x_T-y_T and z_T-y_T planes with the wedge.
+Paper 001's coupled 6-DOF NMPC figures (`COUPLED_FIGURE_NAMES`, drawn by
+rpod.diagrams.plots_coupled, only for a run that logged coupled_eigenaxis_error_rad):
+  coupled_state.png            eigenaxis error, relative rate, feature-point distance and velocity.
+  coupled_thrusters.png        resultant force and torque, each thruster's magnitude and gimbal
+                               angle against their limits.
+  coupled_nmpc.png             LOS margin, NMPC solve time, status and fallback vs time.
 
 Decisions, written down as DESIGN.md asks:
 - Figures drawn by another module are registered here by a two-line wrapper that imports it when
-  first drawn (plots_los imports this module's helpers, so a module-level import would be
-  circular); their log keys are listed in `_SHAPES` with the others, so `_Log` checks them alike.
+  first drawn (plots_los and plots_coupled import this module's helpers, so a module-level
+  import would be circular); their log keys are listed in `_SHAPES` with the others, so `_Log`
+  checks them alike.
 - matplotlib through `matplotlib.figure.Figure` + the Agg canvas, never pyplot: no global figure
   registry, no backend switching, safe to call from worker threads (sweeps).
 - Missing data is not an error: a key that is absent, has the wrong shape, has zero columns or a
@@ -67,6 +74,7 @@ FIGURE_NAMES = (
     "separation.png",
 )
 LOS_FIGURE_NAMES = ("los_corridor.png", "los_body_frame.png")
+COUPLED_FIGURE_NAMES = ("coupled_state.png", "coupled_thrusters.png", "coupled_nmpc.png")
 MAX_DUTY_LINES = 6  # more thrusters than this: duty drawn as a heatmap
 MAX_HEATMAP_COLUMNS = 800  # time columns of a heatmap after block averaging
 MAX_LINE_BUCKETS = 1000  # dense time series drawn as the min/max envelope of this many runs
@@ -104,6 +112,20 @@ _SHAPES = {
     "los_fallback": None,
     "los_a_max_m_s2": None,
     "los_half_angle_deg": None,
+    # Paper 001's coupled 6-DOF NMPC (rpod.diagrams.plots_coupled, which documents each key).
+    "coupled_eigenaxis_error_rad": None,
+    "coupled_w_TC_T_rad_s": 3,
+    "coupled_p_PtPc_T_m": 3,
+    "coupled_v_PtPc_T_m_s": 3,
+    "coupled_thruster_forces_C_N": -1,  # 3 per thruster
+    "coupled_force_C_N": 3,
+    "coupled_torque_C_Nm": 3,
+    "coupled_los_margin_m": None,
+    "coupled_max_thrust_N": None,
+    "coupled_gimbal_half_angle_rad": None,
+    "nmpc_status": None,
+    "nmpc_fallback": None,
+    "nmpc_solve_time_s": None,
 }
 
 
@@ -587,6 +609,24 @@ def _figure_los_body_frame(log: _Log, title: str) -> Figure | None:
     return figure_los_body_frame(log, title)
 
 
+def _figure_coupled_state(log: _Log, title: str) -> Figure | None:
+    from rpod.diagrams.plots_coupled import figure_coupled_state  # here: it imports this module
+
+    return figure_coupled_state(log, title)
+
+
+def _figure_coupled_thrusters(log: _Log, title: str) -> Figure | None:
+    from rpod.diagrams.plots_coupled import figure_coupled_thrusters  # here: it imports this module
+
+    return figure_coupled_thrusters(log, title)
+
+
+def _figure_coupled_nmpc(log: _Log, title: str) -> Figure | None:
+    from rpod.diagrams.plots_coupled import figure_coupled_nmpc  # here: it imports this module
+
+    return figure_coupled_nmpc(log, title)
+
+
 _FIGURES: dict[str, Callable[[_Log, str], Figure | None]] = {
     "trajectory_lvlh.png": _figure_trajectory_lvlh,
     "trajectory_target_body.png": _figure_trajectory_target_body,
@@ -595,8 +635,11 @@ _FIGURES: dict[str, Callable[[_Log, str], Figure | None]] = {
     "separation.png": _figure_separation,
     "los_corridor.png": _figure_los_corridor,
     "los_body_frame.png": _figure_los_body_frame,
+    "coupled_state.png": _figure_coupled_state,
+    "coupled_thrusters.png": _figure_coupled_thrusters,
+    "coupled_nmpc.png": _figure_coupled_nmpc,
 }
-assert tuple(_FIGURES) == FIGURE_NAMES + LOS_FIGURE_NAMES
+assert tuple(_FIGURES) == FIGURE_NAMES + LOS_FIGURE_NAMES + COUPLED_FIGURE_NAMES
 
 
 # --------------------------------------------------------------------------------------------
@@ -624,14 +667,15 @@ def write_plots(log: Mapping[str, np.ndarray], out_dir: Path, title: str = "") -
             t (N) [s], p_LC_L (N, 3) [m], q_IT and q_IL (N, 4) (w, x, y, z), thruster_duty and
             thruster_on (N, n), body_wrench (N, 6) [N m, N] (torque then force, in C),
             propellant_kg (N), separation_m (N), optional hold_point_L (N, 3) and p_TC_T (N, 3);
-            paper 004's los_* keys (rpod.diagrams.plots_los). Any key may be missing; what
+            paper 004's los_* keys (rpod.diagrams.plots_los), paper 001's coupled_* and nmpc_*
+            keys (rpod.diagrams.plots_coupled). Any key may be missing; what
             cannot be drawn is skipped.
         out_dir: Output folder, e.g. runs/<scenario>/plots.
         title: Prefix of every figure's title, e.g. the scenario name.
 
     Returns:
-        The paths written, in `FIGURE_NAMES + LOS_FIGURE_NAMES` order (figures without data are
-        not written).
+        The paths written, in `FIGURE_NAMES + LOS_FIGURE_NAMES + COUPLED_FIGURE_NAMES` order
+        (figures without data are not written).
     """
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)

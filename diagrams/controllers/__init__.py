@@ -1,9 +1,14 @@
 """rpod's built-in controller plug-ins (rpod.diagrams.controller_seam); importing registers them.
 
-`!HoldPoint` (hold_point.py, the default), `!SoftCapture` (soft_capture.py) and `!LosCorridor`
-(los_corridor.py, paper 004). Other packages
+`!HoldPoint` (hold_point.py, the default), `!SoftCapture` (soft_capture.py), `!LosCorridor`
+(los_corridor.py, paper 004) and `!CoupledNmpc` (coupled_nmpc.py, paper 001). Other packages
 add controllers through the entry point group `rpod.controllers`, or by calling
 `rpod.diagrams.controller_seam.register_controller` before loading a scenario.
 """
 
-from rpod.diagrams.controllers import hold_point, los_corridor, soft_capture  # noqa: F401
+from rpod.diagrams.controllers import (  # noqa: F401
+    coupled_nmpc,
+    hold_point,
+    los_corridor,
+    soft_capture,
+)
