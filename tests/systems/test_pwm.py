@@ -1,5 +1,9 @@
 """Tests of rpod.systems.pwm.PwmModulator, simulated alone with a Drake Simulator and a log.
 
+The schemes' math is tested in tests/models/test_modulation.py; here, that the system delivers
+exactly the model's slots for each scheme, and that the default is the PWM rpod had before the
+schemes (a frozen copy of its update rule below), bit for bit.
+
 Truths: the delivered impulse (ON-slot count) is an integer and the commanded one is
 sum(duty * N); the module promises |commanded - delivered| <= 1/2 slot at every period end
 (max(1/2, M/2) with a minimum ON time of M slots). The brief's requirement is <= 1 slot; both
@@ -16,13 +20,17 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
+from rpod.models.modulation import SCHEMES, modulate
 from rpod.systems.pwm import PwmModulator
 
 T = 0.1  # control period, s (paper 003: 10 Hz)
 
 
-def _simulate(duties, subdivisions, min_on_slots=0, period=T):
-    """Feeds duties[k] (periods x n) during period k; returns ON slots (slots x n)."""
+def _simulate(duties, subdivisions, min_on_slots=0, period=T, **pwm_options):
+    """Feeds duties[k] (periods x n) during period k; returns ON slots (slots x n).
+
+    pwm_options go to PwmModulator (scheme, schmitt_hysteresis).
+    """
     duties = np.asarray(duties, dtype=float)
     num_periods, n = duties.shape
     # Zero-order hold with breaks half a period early, so the sample at k T is duties[k].
@@ -30,7 +38,7 @@ def _simulate(duties, subdivisions, min_on_slots=0, period=T):
     samples = np.vstack([duties, duties[-1:]]).T
     builder = DiagramBuilder()
     source = builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(breaks, samples)))
-    pwm = builder.AddSystem(PwmModulator(n, period, subdivisions, min_on_slots))
+    pwm = builder.AddSystem(PwmModulator(n, period, subdivisions, min_on_slots, **pwm_options))
     builder.Connect(source.get_output_port(), pwm.GetInputPort("thruster_duty"))
     logger = LogVectorOutput(pwm.GetOutputPort("thruster_on"), builder, pwm.slot_period_s)
     diagram = builder.Build()
@@ -54,8 +62,8 @@ def test_ports_and_state():
     assert not pwm.HasAnyDirectFeedthrough()  # output from state only
     assert pwm.slot_period_s == pytest.approx(0.01, rel=1e-15)
     assert pwm.remainder_bound_slots == 1.0
-    for bad in (dict(subdivisions=0), dict(min_on_slots=11), dict(control_period_s=0.0)):
-        args = dict(num_thrusters=8, control_period_s=T, subdivisions=10) | bad
+    for bad in ({"subdivisions": 0}, {"min_on_slots": 11}, {"control_period_s": 0.0}):
+        args = {"num_thrusters": 8, "control_period_s": T, "subdivisions": 10} | bad
         with pytest.raises(ValueError, match=next(iter(bad))):
             PwmModulator(**args)
 
@@ -152,3 +160,100 @@ def test_delivered_duty_equals_on_slots_of_each_period():
         delivered.append(pwm.GetOutputPort("delivered_duty").Eval(pwm_context).copy())
     # Exact: both are integers over N computed from the same state machine.
     np.testing.assert_array_equal(np.array(delivered) * subdivisions, on_slots_per_period)
+
+
+def _driven(pwm, duties):
+    """A Simulator of pwm fed duties[k] during period k (as _simulate), without a log."""
+    breaks = (np.arange(len(duties) + 1) - 0.5) * T
+    samples = np.vstack([duties, duties[-1:]]).T
+    builder = DiagramBuilder()
+    source = builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(breaks, samples)))
+    builder.AddSystem(pwm)
+    builder.Connect(source.get_output_port(), pwm.GetInputPort("thruster_duty"))
+    return Simulator(builder.Build())
+
+
+def _legacy_pwm(duties, subdivisions, min_on_slots=0):
+    """The PWM update rule as it was before the schemes (frozen copy): slots and remainders."""
+    n = duties.shape[1]
+    remainder, slots, remainders = np.zeros(n), [], []
+    for duty in duties:
+        duty = np.clip(np.where(np.isnan(duty), 0.0, duty), 0.0, 1.0)
+        want = remainder + duty * subdivisions
+        on_slots = np.clip(np.floor(want + 0.5), 0.0, subdivisions)
+        if min_on_slots > 1:
+            short = (on_slots > 0.0) & (on_slots < min_on_slots)
+            on_slots = np.where(
+                short, np.where(want >= 0.5 * min_on_slots, min_on_slots, 0.0), on_slots
+            )
+        remainder = want - on_slots
+        remainders.append(remainder)
+        slots.append(np.arange(subdivisions)[:, None] < on_slots[None, :])
+    return np.vstack(slots).astype(float), np.array(remainders)
+
+
+@pytest.mark.parametrize("min_on_slots", [0, 3])
+def test_default_scheme_is_the_legacy_pwm_bit_for_bit(min_on_slots):
+    rng = np.random.default_rng(11)
+    periods, n = 120, 5
+    duties = rng.uniform(-0.2, 1.2, (periods, n))
+    duties[rng.uniform(size=duties.shape) < 0.05] = np.nan
+    pwm = PwmModulator(n, T, 10, min_on_slots)
+    assert pwm.scheme == "pwm_carry"
+    assert pwm.CreateDefaultContext().get_discrete_state(0).size() == 2 * n + 1  # same layout
+    legacy_slots, legacy_remainders = _legacy_pwm(duties, 10, min_on_slots)
+    np.testing.assert_array_equal(_simulate(duties, 10, min_on_slots), legacy_slots)
+    # The carried remainder, read from the state inside the last period, is the same double.
+    simulator = _driven(pwm, duties)
+    simulator.AdvanceTo((periods - 0.5) * T)
+    state = pwm.GetMyContextFromRoot(simulator.get_context()).get_discrete_state(0).get_value()
+    np.testing.assert_array_equal(state[:n], legacy_remainders[-1])
+
+
+@pytest.mark.parametrize("scheme", SCHEMES)
+def test_each_scheme_delivers_the_model_slots(scheme):
+    rng = np.random.default_rng(12)
+    periods, n = 60, 4
+    duties = rng.uniform(0.0, 1.0, (periods, n))
+    duties[::7] = 0.5  # exact ties
+    duties[3::11, 0] = np.nan
+    options = {"scheme": scheme, "schmitt_hysteresis": 0.1}
+    on = _simulate(duties, 10, **options)
+    expected, _ = modulate(scheme, duties, 10, hysteresis=0.1)
+    np.testing.assert_array_equal(on, expected)
+
+
+@pytest.mark.parametrize("scheme", SCHEMES)
+def test_state_size_delivered_duty_and_bounds_per_scheme(scheme):
+    n, subdivisions, num_periods = 3, 10, 12
+    pwm = PwmModulator(n, T, subdivisions, scheme=scheme)
+    leading_edge = scheme in ("pwm_carry", "round")
+    size = 2 * n + 1 if leading_edge else (subdivisions + 2) * n + 1
+    assert pwm.CreateDefaultContext().get_discrete_state(0).size() == size
+    assert not pwm.HasAnyDirectFeedthrough()
+    assert (
+        pwm.remainder_bound_slots
+        == {"pwm_carry": 0.5, "round": np.inf, "schmitt": np.inf, "delta_sigma": 0.5}[scheme]
+    )
+    # delivered_duty, read inside each period, is that period's ON-slot count over N.
+    duties = np.random.default_rng(13).uniform(0.0, 1.0, (num_periods, n))
+    on = _simulate(duties, subdivisions, scheme=scheme)
+    simulator = _driven(pwm, duties)
+    pwm_context = pwm.GetMyContextFromRoot(simulator.get_mutable_context())
+    delivered = []
+    for k in range(num_periods):
+        simulator.AdvanceTo(k * T + 0.5 * pwm.slot_period_s)
+        delivered.append(pwm.GetOutputPort("delivered_duty").Eval(pwm_context).copy())
+    np.testing.assert_array_equal(
+        np.array(delivered) * subdivisions, on.reshape(num_periods, subdivisions, n).sum(axis=1)
+    )
+
+
+def test_scheme_arguments_are_checked():
+    with pytest.raises(ValueError, match="scheme must be one of"):
+        PwmModulator(2, T, 10, scheme="pdm")
+    with pytest.raises(ValueError, match="min_on_slots: delta_sigma"):
+        PwmModulator(2, T, 10, 2, scheme="delta_sigma")
+    with pytest.raises(ValueError, match="hysteresis"):
+        PwmModulator(2, T, 10, scheme="schmitt", schmitt_hysteresis=-0.1)
+    PwmModulator(2, T, 10, 10, scheme="schmitt")  # whole-period pulses meet any M <= N
