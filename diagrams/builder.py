@@ -188,6 +188,8 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
                     wiring.control_period_s if wiring is not None else 0.1,
                     scenario.thrusters.subdivisions,
                     scenario.thrusters.min_on_slots,
+                    scheme=scenario.thrusters.modulation,
+                    schmitt_hysteresis=scenario.thrusters.schmitt_hysteresis,
                 ),
             )
             connect(duty, pwm.GetInputPort("thruster_duty"))

@@ -16,6 +16,7 @@ import numpy as np
 from pydrake.systems.analysis import SimulatorConfig
 
 from rpod.diagrams import controller_seam
+from rpod.models import modulation
 from rpod.models import thrusters as presets
 from rpod.models.docking import DockingGeometry
 from rpod.models.frames import rotation_from_rpy_deg, rotation_from_wxyz
@@ -160,6 +161,10 @@ class ThrustersConfig:
         pwm: True drives the thrusters on/off through PWM; False applies duty as throttle.
         subdivisions: PWM slots per control period (paper 003 Sec. IV-B).
         min_on_slots: minimum pulse length in slots (0: none).
+        modulation: how a duty becomes ON/OFF slots (rpod.models.modulation): pwm_carry
+            (leading-edge PWM, the remainder carried to the next period), round (no carry),
+            schmitt (a Schmitt trigger), delta_sigma (a first-order delta-sigma modulator).
+        schmitt_hysteresis: the Schmitt trigger's band width in duty, in [0, 1).
     """
 
     enabled: bool = True
@@ -170,6 +175,8 @@ class ThrustersConfig:
     pwm: bool = True
     subdivisions: int = 10
     min_on_slots: int = 0
+    modulation: str = "pwm_carry"
+    schmitt_hysteresis: float = 0.2
 
 
 def default_simulator_config() -> SimulatorConfig:
@@ -559,6 +566,21 @@ def validate_scenario(scenario: Scenario) -> None:
             0 <= thrusters.min_on_slots <= thrusters.subdivisions,
             "thrusters.min_on_slots",
             "must be between 0 and subdivisions",
+        )
+        _require(
+            thrusters.modulation in modulation.SCHEMES,
+            "thrusters.modulation",
+            f"must be one of {tuple(modulation.SCHEMES)}, got '{thrusters.modulation}'",
+        )
+        _require(
+            0.0 <= thrusters.schmitt_hysteresis < 1.0,
+            "thrusters.schmitt_hysteresis",
+            f"must be in [0, 1), got {thrusters.schmitt_hysteresis}",
+        )
+        _require(
+            thrusters.modulation != "delta_sigma" or thrusters.min_on_slots <= 1,
+            "thrusters.min_on_slots",
+            "delta_sigma fires single slots: must be 0 or 1",
         )
 
     controller = scenario.controller

@@ -137,3 +137,13 @@ def test_point_at_target_and_a_given_attitude_is_a_field_error():
     with pytest.raises(ScenarioError, match="given twice") as error:
         validate_scenario(scenario)
     assert error.value.field == "chaser.point_at_target"
+
+
+@pytest.mark.parametrize("scheme", ["round", "schmitt", "delta_sigma"])
+def test_the_modulation_scheme_reaches_the_pwm(scheme):
+    scenario = Scenario()
+    scenario.thrusters.modulation = scheme
+    scenario.thrusters.schmitt_hysteresis = 0.3
+    diagram, _ = build_diagram(scenario)
+    pwm = diagram.GetSubsystemByName("pwm")
+    assert pwm.scheme == scheme
