@@ -467,7 +467,9 @@ def _matTvec_rows(R, v) -> np.ndarray:
     return np.matmul(v[:, None, :], R)[:, 0, :]
 
 
-def dynamics_batch(x: np.ndarray, u: np.ndarray, params: CoupledRelativeParams) -> np.ndarray:
+def dynamics_batch(
+    x: np.ndarray, u: np.ndarray | None, params: CoupledRelativeParams, wrench=None
+) -> np.ndarray:
     """`dynamics` for B states at once: x (B, 39), u (B, 24) -> x_dot (B, 39).
 
     The same equations as `dynamics` (the reference, scalar-generic; tested equal to 1e-15
@@ -475,6 +477,8 @@ def dynamics_batch(x: np.ndarray, u: np.ndarray, params: CoupledRelativeParams) 
     complex-analytic (products, sums and a square root of a sum of squares, never abs or
     conjugation), so a complex x + i h e_j gives the exact directional derivative in the
     imaginary part (complex-step differentiation, used by rpod.planners.coupled_shooting).
+    `wrench` (B, 6), [tau_C; f_C], replaces u when given: the input enters only through the
+    wrench of eqs. 11-12, so derivatives need 6 directions, not 24.
     """
     B = x.shape[0]
     R_TC = x[:, R_TC_SLICE].reshape(B, 3, 3)
@@ -485,8 +489,8 @@ def dynamics_batch(x: np.ndarray, u: np.ndarray, params: CoupledRelativeParams) 
     w_IT_T = x[:, W_IT_T_SLICE]
     p_IT_I = x[:, P_IT_I_SLICE]
     v_IT_I = x[:, V_IT_I_SLICE]
-    M = _force_to_wrench_matrix(params)
-    wrench = u @ M.T  # eqs. 11-12
+    if wrench is None:
+        wrench = u @ _force_to_wrench_matrix(params).T  # eqs. 11-12
     tau_C, f_C = wrench[:, :3], wrench[:, 3:]
 
     # Attitude (eqs. 1-4).

@@ -172,6 +172,8 @@ class CoupledSqp:
         self._setup_solver()
         self._nu_merit = np.zeros(self.N * NX)
         self._nu_force = 0.0
+        self._last_qp: tuple[np.ndarray, np.ndarray] | None = None
+        self._shifted: tuple[np.ndarray, np.ndarray] | None = None
 
     # ------------------------------------------------------------------------------ layout
 
@@ -383,10 +385,17 @@ class CoupledSqp:
             l=lo * E,
             u=hi * E,
         )
+        if self._shifted is not None:  # the previous solve's answer, one interval on
+            z_guess, y_guess = self._shifted
+            self._solver.warm_start(x=z_guess / D, y=y_guess * sigma / E)
+            self._shifted = None
         result = self._solver.solve()
         status = result.info.status
         _logger.debug(
-            "OSQP %s in %d iterations, polish %d", status, result.info.iter, result.info.status_polish
+            "OSQP %s in %d iterations, polish %d",
+            status,
+            result.info.iter,
+            result.info.status_polish,
         )
         if result.x is None or not np.all(np.isfinite(result.x)):
             return status, None, None, int(result.info.iter)
@@ -400,7 +409,28 @@ class CoupledSqp:
             return f"{status}, but rows violated by {violation:.2g} (scaled)", None, None, 0
         z = result.x * D
         y = result.y * E / sigma
+        self._last_qp = (z, y)
         return status, z, y, int(result.info.iter)
+
+    def _shift(self, z: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """A QP answer moved one interval on (the receding horizon's shift): every block of
+        variables and of constraint rows, interval k <- k + 1, the last one repeated. The QP is
+        in absolute variables, so this is the next step's natural guess for OSQP."""
+        N = self.N
+
+        def shifted(v: np.ndarray) -> np.ndarray:
+            v = v.reshape(N, -1)
+            return np.vstack([v[1:], v[-1:]]).reshape(-1)
+
+        z_new = np.concatenate(
+            [
+                shifted(z[: self.n_u]),
+                shifted(z[self.n_u : self.n_u + self.n_x]),
+                shifted(z[self.n_u + self.n_x :]),
+            ]
+        )
+        y_new = np.concatenate([shifted(y[rows]) for rows in self.rows.values()])
+        return z_new, y_new
 
     # ------------------------------------------------------------------------------ merit
 
@@ -454,6 +484,9 @@ class CoupledSqp:
         st = self.settings
         self._nu_merit = np.zeros(self.N * NX)
         self._nu_force = 0.0
+        # OSQP starts from the last QP's answer shifted one interval (a warm-started solve is
+        # the next step of a receding horizon); a cold solve from OSQP's own last iterate.
+        self._shifted = None if cold or self._last_qp is None else self._shift(*self._last_qp)
         x = np.asarray(x_guess, dtype=float).copy()
         x[0] = x0
         u = np.asarray(u_guess, dtype=float).copy()
@@ -464,8 +497,8 @@ class CoupledSqp:
         start = (shooting, x, u, s)
         qp_iterations, message = 0, ""
         eps = st.rti_osqp_eps if real_time else st.osqp_eps
-        if eps != self._eps:
-            self._solver.update_settings(eps_abs=eps, eps_rel=eps)
+        if eps != self._eps:  # RTI: a looser QP and no polish (its step is inexact anyway)
+            self._solver.update_settings(eps_abs=eps, eps_rel=eps, polishing=not real_time)
             self._eps = eps
         max_iterations = 1 if real_time else st.max_iterations
         if cold and not real_time:

@@ -4,9 +4,9 @@ Independent references: central finite differences for the defect's AutoDiffXd J
 scipy's DOP853 (tight tolerances, `check_plan`) for the RK4 transcription; the gimbal pyramid per
 thruster from rpod.models.thrusters and np.linalg.norm for the constraints.
 
-Not tested here (see the planner's report): a converged solve from paper 001's Sec. IV start.
-Measured on this machine (2 shared cores), neither IPOPT (300 iterations, 42 s) nor SNOPT (200
-major iterations, ~60-120 s) converged from it, so no test claims it.
+IPOPT and SNOPT through Drake do not converge from Sec. IV's start at T = 480 s (Drake gives
+them no second derivatives; coupled_nmpc's docstring): the converged solve from that start is
+the SQP's, tested in tests/planners/test_coupled_sqp.py (with IPOPT confirming its optimum).
 """
 
 import numpy as np
