@@ -189,6 +189,12 @@ class ControllerPlugin:
         None when the campaign is not this controller's (the default)."""
         return None
 
+    def campaign_figures(self, rows: list[dict], out_dir) -> list:
+        """Figures for `rpod report` over a campaign's stored rows, written into out_dir (a
+        pathlib.Path); their paths, or [] when the campaign is not this controller's (the
+        default)."""
+        return []
+
     make_plan = None  # optional: (scenario, closed_loop) -> a plan, for `rpod plan`
 
 

@@ -22,10 +22,13 @@ rpod.diagrams.plots_coupled, only for a run that logged coupled_eigenaxis_error_
   coupled_thrusters.png        resultant force and torque, each thruster's magnitude and gimbal
                                angle against their limits.
   coupled_nmpc.png             LOS margin, NMPC solve time, status and fallback vs time.
+Paper 003's planar approach figures (`PLANAR_FIGURE_NAMES`, drawn by rpod.diagrams.plots_planar,
+only for a run that logged planar_flown_state): planar_path.png (Fig. 4), planar_thrusters.png
+(Fig. 5), planar_tracking.png (Fig. 6), planar_relative_velocity.png (Fig. 7).
 
 Decisions, written down as DESIGN.md asks:
 - Figures drawn by another module are registered here by a two-line wrapper that imports it when
-  first drawn (plots_los and plots_coupled import this module's helpers, so a module-level
+  first drawn (plots_los, plots_coupled and plots_planar import this module's helpers, so a module-level
   import would be circular); their log keys are listed in `_SHAPES` with the others, so `_Log`
   checks them alike.
 - matplotlib through `matplotlib.figure.Figure` + the Agg canvas, never pyplot: no global figure
@@ -75,6 +78,12 @@ FIGURE_NAMES = (
 )
 LOS_FIGURE_NAMES = ("los_corridor.png", "los_body_frame.png")
 COUPLED_FIGURE_NAMES = ("coupled_state.png", "coupled_thrusters.png", "coupled_nmpc.png")
+PLANAR_FIGURE_NAMES = (
+    "planar_path.png",
+    "planar_thrusters.png",
+    "planar_tracking.png",
+    "planar_relative_velocity.png",
+)
 MAX_DUTY_LINES = 6  # more thrusters than this: duty drawn as a heatmap
 MAX_HEATMAP_COLUMNS = 800  # time columns of a heatmap after block averaging
 MAX_LINE_BUCKETS = 1000  # dense time series drawn as the min/max envelope of this many runs
@@ -126,6 +135,19 @@ _SHAPES = {
     "nmpc_status": None,
     "nmpc_fallback": None,
     "nmpc_solve_time_s": None,
+    # Paper 003's planar approach (rpod.diagrams.plots_planar, which documents each key).
+    "planar_flown_state": 6,
+    "planar_plan_state": 6,
+    "planar_position_error_m": None,
+    "planar_attitude_error_rad": None,
+    "planar_target_yaw_rad": None,
+    "planar_relative_velocity_T": 2,
+    "planar_keepout_state": None,
+    "planar_keepout_q_m": None,
+    "planar_goal_L": 2,
+    "planar_chaser_side_m": None,
+    "planar_target_side_m": None,
+    "planar_body_wrench_desired": 6,
 }
 
 
@@ -627,6 +649,30 @@ def _figure_coupled_nmpc(log: _Log, title: str) -> Figure | None:
     return figure_coupled_nmpc(log, title)
 
 
+def _figure_planar_path(log: _Log, title: str) -> Figure | None:
+    from rpod.diagrams.plots_planar import figure_planar_path  # here: it imports this module
+
+    return figure_planar_path(log, title)
+
+
+def _figure_planar_thrusters(log: _Log, title: str) -> Figure | None:
+    from rpod.diagrams.plots_planar import figure_planar_thrusters  # here: it imports this module
+
+    return figure_planar_thrusters(log, title)
+
+
+def _figure_planar_tracking(log: _Log, title: str) -> Figure | None:
+    from rpod.diagrams.plots_planar import figure_planar_tracking  # here: it imports this module
+
+    return figure_planar_tracking(log, title)
+
+
+def _figure_planar_relative_velocity(log: _Log, title: str) -> Figure | None:
+    from rpod.diagrams.plots_planar import figure_planar_relative_velocity  # (imports this)
+
+    return figure_planar_relative_velocity(log, title)
+
+
 _FIGURES: dict[str, Callable[[_Log, str], Figure | None]] = {
     "trajectory_lvlh.png": _figure_trajectory_lvlh,
     "trajectory_target_body.png": _figure_trajectory_target_body,
@@ -638,8 +684,14 @@ _FIGURES: dict[str, Callable[[_Log, str], Figure | None]] = {
     "coupled_state.png": _figure_coupled_state,
     "coupled_thrusters.png": _figure_coupled_thrusters,
     "coupled_nmpc.png": _figure_coupled_nmpc,
+    "planar_path.png": _figure_planar_path,
+    "planar_thrusters.png": _figure_planar_thrusters,
+    "planar_tracking.png": _figure_planar_tracking,
+    "planar_relative_velocity.png": _figure_planar_relative_velocity,
 }
-assert tuple(_FIGURES) == FIGURE_NAMES + LOS_FIGURE_NAMES + COUPLED_FIGURE_NAMES
+assert tuple(_FIGURES) == (
+    FIGURE_NAMES + LOS_FIGURE_NAMES + COUPLED_FIGURE_NAMES + PLANAR_FIGURE_NAMES
+)
 
 
 # --------------------------------------------------------------------------------------------

@@ -277,6 +277,8 @@ def write_report(results, out_dir=None, metrics: list[str] | None = None):
     try:
         (out_dir / "report.md").write_text("```\n" + text + "\n```\n")
         plots = _histograms(rows, names, out_dir) + _grid_maps(meta, rows, names, out_dir)
+        for plugin in controller_seam.controller_plugins():  # e.g. a paper's figures
+            plots += plugin.campaign_figures(rows, out_dir)
     except OSError as error:
         raise ScenarioFileError(
             f"--out {out_dir}: cannot write the report: {error.strerror or error}"

@@ -10,5 +10,6 @@ from rpod.diagrams.controllers import (  # noqa: F401
     coupled_nmpc,
     hold_point,
     los_corridor,
+    planar_approach,
     soft_capture,
 )

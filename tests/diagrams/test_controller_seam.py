@@ -235,3 +235,10 @@ def test_unknown_tag_is_one_line_naming_the_known_ones(tmp_path, capsys):
     line = capsys.readouterr().err.strip()
     assert "\n" not in line and "controller: unknown tag !NoSuchController" in line
     assert "!HoldPoint" in line and "!ConstantAcceleration" in line
+
+
+def test_campaign_figures_default_to_none(tmp_path):
+    """A plug-in draws campaign figures for `rpod report` only when it says so."""
+    plugin = ControllerPlugin()
+    assert plugin.campaign_figures([], tmp_path) == []
+    assert list(tmp_path.iterdir()) == []

@@ -1,0 +1,288 @@
+"""The `!PlanarApproach` plug-in (paper 003): problem data derived from the scenario, bad fields
+named, short flights judged from their logs, a failed plan as a status, the campaign tables and
+the bundled campaigns' grids.
+
+The short flights: the bundled scenario with the target at 0.2 rad/s and the chaser starting
+0.7 m out, one candidate (T = 43.2 s), logged every PWM slot (~1 s each)."""
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from rpod.diagrams.controller_seam import Actuation, plugin_for
+from rpod.diagrams.controllers.planar_approach import (
+    DERIVED_FIELDS,
+    PlanarApproach,
+    PlanarPlannerSettings,
+    campaign_rows,
+    co_rotating_hold,
+    face_aligned_reference,
+    initial_planar_state,
+    make_run,
+    planner_config,
+)
+from rpod.diagrams.scenario import ScenarioError, validate_scenario
+from rpod.diagrams.simulate import simulate
+from rpod.models import planar_approach as pa
+from rpod.planners.planar_approach import PlanarApproachConfig
+from rpod.scenarios.campaign import apply_overrides, load_campaign, plan_runs
+from rpod.scenarios.loader import load_scenario
+
+SHORT = {
+    "chaser.p_LC_L": [0.7, 0.0, 0.0],
+    "target.w_IT_T_deg_s[2]": math.degrees(0.2),
+    "controller.planner.duration_min_s": 20.0,
+    "controller.planner.max_duration_candidates": 1,
+    "stop.hold_s": 2.0,
+}
+
+
+def _scenario(**overrides):
+    return apply_overrides(load_scenario("planar_approach")[1], overrides)
+
+
+@pytest.fixture(scope="module")
+def short_flights():
+    """(face-aligned run, plan-heading run) of the short approach."""
+    aligned = simulate(_scenario(**SHORT))
+    plan_heading = simulate(_scenario(**SHORT, **{"controller.attitude_reference": "plan"}))
+    return aligned, plan_heading
+
+
+def test_settings_mirror_the_planner_config():
+    """Every PlanarApproachConfig field is a mirrored setting or derived problem data."""
+    planner = {f.name for f in dataclasses.fields(PlanarApproachConfig)}
+    settings = set(PlanarPlannerSettings().planner_fields())
+    assert settings | set(DERIVED_FIELDS) == planner
+    assert not settings & set(DERIVED_FIELDS)
+    assert "theta_approach_rad" in settings  # a setting, written in degrees
+    defaults = PlanarApproachConfig()
+    for name, value in PlanarPlannerSettings().planner_fields().items():
+        assert value == pytest.approx(getattr(defaults, name)), name
+
+
+def test_problem_data_come_from_the_scenario():
+    scenario = _scenario(
+        **{
+            "target.rpy_LT_deg": [0.0, 0.0, 30.0],
+            "target.w_IT_T_deg_s": [0.0, 0.0, -8.0],
+            "chaser.p_LC_L": [0.9, -0.2, 0.0],
+            "chaser.v_LC_L": [0.01, 0.02, 0.0],
+            "chaser.rpy_LC_deg": [0.0, 0.0, 100.0],
+            "chaser.w_IC_C_deg_s": [0.0, 0.0, 2.0],
+            "chaser.mass_kg": 12.0,
+            "chaser.inertia_kg_m2": [[0.2, 0.0, 0.0], [0.0, 0.3, 0.0], [0.0, 0.0, 0.4]],
+            "chaser.size_m": [0.25, 0.25, 0.3],
+            "thrusters.size_m": 0.25,
+            "thrusters.max_thrust_N": 0.2,
+            "controller.control_period_s": 0.2,
+            "controller.planner.theta_approach_deg": 60.0,
+        }
+    )
+    validate_scenario(scenario)
+    config = planner_config(scenario)
+    assert config.omega_target_rad_s == pytest.approx(math.radians(-8.0), rel=1e-15)
+    assert config.theta_target0_rad == pytest.approx(math.radians(30.0), rel=1e-12)
+    assert config.theta_approach_rad == pytest.approx(math.radians(60.0), rel=1e-15)
+    assert (config.chaser_side_m, config.target_side_m) == (0.25, 0.3)
+    assert (config.chaser_mass_kg, config.chaser_inertia_kg_m2, config.dt_s) == (12.0, 0.4, 0.2)
+    # planar_8 on a 0.25 m square: two thrusters per axis, four turning each way (eqs. 3-4).
+    assert config.max_force_N == pytest.approx(2 * 0.2, rel=1e-12)
+    assert config.max_torque_Nm == pytest.approx(4 * 0.125 * 0.2, rel=1e-12)
+    np.testing.assert_allclose(
+        initial_planar_state(scenario),
+        [0.9, -0.2, math.radians(100.0), 0.01, 0.02, math.radians(2.0)],
+        rtol=0.0,
+        atol=1e-15,
+    )
+    assert plugin_for(scenario.controller).actuation_for(scenario.controller) is (
+        Actuation.BODY_WRENCH
+    )
+
+
+@pytest.mark.parametrize(
+    "overrides, field",
+    [
+        ({"orbit.gravity": "two_body"}, "orbit.gravity"),
+        ({"thrusters.layout": "rcs_cube_12"}, "thrusters.layout"),
+        ({"chaser.p_LC_L": [1.0, 0.0, 0.1]}, "chaser.p_LC_L"),
+        ({"chaser.rpy_LC_deg": [5.0, 0.0, 0.0]}, "chaser.rpy_LC_deg"),
+        ({"chaser.w_IC_C_deg_s": [0.0, 1.0, 0.0]}, "chaser.w_IC_C_deg_s"),
+        ({"chaser.size_m": [0.3, 0.4, 0.3]}, "chaser.size_m"),
+        (
+            {"chaser.inertia_kg_m2": [[0.15, 0.0, 0.01], [0.0, 0.15, 0.0], [0.01, 0.0, 0.15]]},
+            "chaser.inertia_kg_m2",
+        ),
+        ({"target.rpy_LT_deg": [0.0, 10.0, 0.0]}, "target.rpy_LT_deg"),
+        ({"target.w_IT_T_deg_s": [1.0, 0.0, 5.0]}, "target.w_IT_T_deg_s"),
+        ({"target.w_IT_T_deg_s": [0.0, 0.0, 0.0]}, "target.w_IT_T_deg_s"),
+        ({"controller.planner.w_goal": -1.0}, "controller.planner.w_goal"),
+        ({"controller.planner.solver": "cplex"}, "controller.planner.solver"),
+        ({"controller.planner.theta_approach_deg": math.inf}, "controller.planner.theta_approach"),
+        ({"controller.after_plan": "spin"}, "controller.after_plan"),
+        ({"controller.attitude_reference": "sun"}, "controller.attitude_reference"),
+        ({"controller.position_bandwidth_rad_s": 0.0}, "controller.position_bandwidth_rad_s"),
+    ],
+)
+def test_bad_fields_are_named(overrides, field):
+    with pytest.raises(ScenarioError, match=field.replace(".", r"\.")) as error:
+        validate_scenario(_scenario(**overrides))
+    assert "\n" not in str(error.value)
+
+
+def test_a_short_approach_is_flown_and_judged_from_its_log(short_flights):
+    summary, log = short_flights[0].summary, short_flights[0].log
+    assert summary["status"] == "ok"
+    assert summary["planar_plan_status"] == "success" and summary["planar_plan_check_passed"]
+    T = summary["planar_plan_duration_s"]
+    assert T == pytest.approx((0.75 * math.pi + 2.0 * math.pi) / 0.2, rel=1e-12)  # Sec. III-A
+    # Contact: the truth's separation at every slot (the monitor's), none in the approach.
+    assert not summary["planar_contact"] and np.all(log["separation_m"] > 0.0)
+    # Tracking error, recomputed here from the truth and the plan's knots (linear between them).
+    t = log["t"]
+    within = t <= T
+    knots = make_run(_scenario(**SHORT)).plan
+    planned = np.column_stack(
+        [np.interp(t[within], knots.t_knots, knots.x_knots[:, k]) for k in (0, 1)]
+    )
+    error = np.linalg.norm(log["p_LC_L"][within, :2] - planned, axis=1)
+    assert summary["planar_rms_tracking_error_m"] == pytest.approx(
+        np.sqrt(np.mean(error**2)), rel=1e-9
+    )
+    assert summary["planar_rms_tracking_error_m"] < 0.02  # the issue's goal
+    # Terminal quantities at the first sample at or after T; speed relative to the turning face.
+    i = int(np.searchsorted(t, T - 1e-9))
+    omega = 0.2
+    p, v = log["p_LC_L"][i, :2], log["v_LC_L"][i, :2]
+    relative = np.linalg.norm(v - omega * np.array([-p[1], p[0]]))
+    assert summary["planar_terminal_relative_speed_m_s"] == pytest.approx(relative, rel=1e-9)
+    assert summary["planar_terminal_position_error_m"] == pytest.approx(
+        np.linalg.norm(p - np.asarray(summary["planar_goal_L"])), rel=1e-12
+    )
+    # Switches: exact at the slot rate, equal to the ON/OFF transitions of the logged pattern.
+    on = log["thruster_on"] > 0.5
+    assert summary["planar_switches"] == int(np.sum(on[1:] != on[:-1]) + np.sum(on[0]))
+    assert summary["planar_switches"] > 0
+    assert summary["planar_delta_v_m_s"] > 0.0
+    assert summary["mission"]["success"] is True
+    assert summary["mission"]["outcome"].startswith("approached, no contact")
+    for key in ("planar_plan_state", "planar_flown_state"):
+        assert log[key].shape == (len(t), 6)
+    assert set(np.unique(log["planar_keepout_state"])) <= {pa.STATE_I, pa.STATE_II}
+
+
+def test_the_plans_own_heading_touches_the_target(short_flights):
+    """The planner lets the centre into State II whatever the heading: the plan itself makes the
+    squares overlap, and the flight with the plan's heading reports the contact as such."""
+    aligned, plan_heading = (flight.summary for flight in short_flights)
+    assert plan_heading["planar_plan_contact_s"] is not None
+    assert plan_heading["planar_plan_contact_s"] == aligned["planar_plan_contact_s"]
+    assert plan_heading["planar_contact"] is True
+    assert plan_heading["mission"]["success"] is False
+    assert "the plan itself touches" in plan_heading["mission"]["outcome"]
+    assert aligned["min_separation_m"] > 0.0
+
+
+def test_a_failed_plan_is_a_status_and_the_run_goes_on():
+    # 10 uN thrusters cannot turn the chaser to theta_finish (eq. 6) in any candidate duration.
+    result = simulate(_scenario(**SHORT, **{"thrusters.max_thrust_N": 1e-5}))
+    summary, log = result.summary, result.log
+    assert summary["status"] == "ok"
+    assert summary["planar_plan_success"] is False
+    assert summary["planar_plan_status"] == "infeasible"
+    assert "attitude QP" in summary["planar_plan_message"]
+    assert summary["sim_time_s"] == pytest.approx(2.0)  # the plan "ends" at 0, plus hold_s
+    np.testing.assert_allclose(log["p_LC_L"][-1], [0.7, 0.0, 0.0], atol=1e-9)  # held
+    assert summary["mission"]["success"] is False
+    assert summary["mission"]["outcome"].startswith("NOT flown: plan infeasible")
+    assert summary["planar_rms_tracking_error_m"] is None
+
+
+def test_references_after_the_plan_and_onto_the_face():
+    hold = co_rotating_hold(np.array([0.36, 0.0, math.pi, 0.0, 0.0, 0.0]), 10.0, 0.5, 4.0)
+    x = hold.value(12.0).ravel()
+    np.testing.assert_allclose(x[:2], 0.36 * np.array([math.cos(1.0), math.sin(1.0)]), atol=1e-4)
+    assert x[2] == pytest.approx(math.pi + 1.0, abs=1e-12)
+    np.testing.assert_allclose(x[3:5], 0.5 * np.array([-x[1], x[0]]), atol=1e-4)
+    run = make_run(_scenario(**SHORT))
+    turned = face_aligned_reference(run.plan, run.config, 20.0)
+    # From the first knot within reach on, the heading is the docking face's, theta_t + pi.
+    t = run.plan.t_knots
+    near = np.linalg.norm(run.plan.x_knots[:, :2], axis=1) < 0.5 * math.sqrt(2) * 0.6 + 0.03
+    later = t[np.argmax(near) :]
+    theta_t = 0.2 * later
+    heading = turned.vector_values(later)[2]
+    np.testing.assert_allclose(pa.wrap_to_pi(heading - theta_t - math.pi), 0.0, atol=1e-9)
+    early = t[t < t[np.argmax(near)] - 20.0]
+    np.testing.assert_allclose(
+        turned.vector_values(early), run.plan.x_traj.vector_values(early), atol=1e-12
+    )
+
+
+def _row(metrics, **overrides):
+    return {"status": "ok", "metrics": {**metrics, **overrides}}
+
+
+def test_campaign_tables():
+    base = {
+        "planar_plan_status": "success",
+        "planar_plan_success": True,
+        "planar_modulation": "pwm_carry",
+        "planar_theta_approach_deg": 135.0,
+        "planar_omega_target_rad_s": 0.1,
+        "planar_rms_tracking_error_m": 0.004,
+        "planar_terminal_relative_speed_m_s": 0.013,
+        "planar_delta_v_m_s": 0.1,
+        "planar_switches": 3000,
+        "planar_contact": False,
+        "planar_safe": True,
+        "planar_plan_terminal_position_error_m": 0.003,
+        "mission": {"success": True},
+    }
+    schemes = [_row(base, planar_modulation=m) for m in ("pwm_carry", "schmitt")]
+    title, header, table = campaign_rows(schemes)
+    assert "modulation" in title and header[0] == "modulation"
+    assert [line[0] for line in table] == ["pwm_carry", "schmitt"]
+    assert table[0][2] == "0.4"  # cm, one run
+    grid = [_row(base, planar_omega_target_rad_s=w, planar_safe=w < 1.0) for w in (0.5, 0.5, 1.5)]
+    title, header, table = campaign_rows(grid + [{"status": "failed", "metrics": None}])
+    assert "Case Study 1" in title and "67% (2/3)" in title
+    assert [line[0] for line in table] == ["0.5", "1.5"]
+    thetas = [_row(base, planar_theta_approach_deg=a) for a in (0.0, 180.0)]
+    assert "Case Study 2" in campaign_rows(thetas)[0]
+    assert campaign_rows([{"status": "ok", "metrics": {"capture_success": True}}]) is None
+
+
+def test_bundled_campaigns_hold_the_full_grids():
+    case1 = load_campaign("planar_case1")
+    omega = np.radians(case1.grid["target.w_IT_T_deg_s[2]"])
+    np.testing.assert_allclose(omega, 0.035 + 0.025 * np.arange(79), rtol=0.0, atol=1e-12)
+    np.testing.assert_allclose(
+        case1.grid["thrusters.max_thrust_N"], 0.03 * np.arange(1, 35), atol=1e-12
+    )
+    case2 = load_campaign("planar_case2")
+    assert case2.grid["controller.planner.theta_approach_deg"] == [30.0 * k for k in range(12)]
+    np.testing.assert_allclose(
+        np.radians(case2.grid["target.w_IT_T_deg_s[2]"]), 0.05 * np.arange(1, 41), atol=1e-12
+    )
+    assert case2.base.thrusters.max_thrust_N == 0.03
+    modulation = load_campaign("planar_modulation")
+    assert modulation.grid == {
+        "thrusters.modulation": ["pwm_carry", "round", "schmitt", "delta_sigma"]
+    }
+    assert len(plan_runs(case2)) == 480 and len(plan_runs(modulation)) == 4
+    assert isinstance(case1.base.controller, PlanarApproach)
+
+
+@pytest.mark.slow
+def test_sec_va_is_flown_without_contact_to_the_goal():
+    """The bundled scenario (Sec. V-A): RMS tracking error under 2 cm, no contact, the goal
+    reached; after the co-rotating hold the relative speed is under 0.01 m/s (the issue's goal)."""
+    summary = simulate(load_scenario("planar_approach")[1]).summary
+    assert summary["mission"]["success"] is True
+    assert summary["planar_plan_duration_s"] == pytest.approx(0.75 * math.pi / 0.1 + 20 * math.pi)
+    assert summary["planar_rms_tracking_error_m"] < 0.02
+    assert summary["planar_final_relative_speed_m_s"] < 0.01
+    assert summary["planar_terminal_relative_speed_m_s"] < 0.03  # the paper's ~0.03 m/s
