@@ -21,9 +21,8 @@ import dataclasses
 import os
 import pathlib
 import sys
-import time
 
-from machine import machine_line, write_results  # benchmarks/machine.py, beside this script
+from machine import machine_line, timed, write_results  # benchmarks/machine.py, beside this script
 
 from rpod.diagrams.simulate import simulate
 from rpod.planners.los_corridor_mpc import LosCorridorMpc
@@ -34,22 +33,6 @@ RESULTS = pathlib.Path(__file__).resolve().parent / "results" / "los_corridor.md
 COMMAND = "python benchmarks/bench_los_corridor.py"
 SCENARIOS = ("los_corridor", "los_corridor_thrusters", "los_corridor_3d", "los_corridor_far")
 GOAL = {"los_corridor": 200.0}
-
-
-def timed(cls, name: str):
-    """Wraps cls.name to add up its wall time; returns (restore, [total seconds])."""
-    total = [0.0]
-    original = getattr(cls, name)
-
-    def wrapper(*args, **kwargs):
-        start = time.perf_counter()
-        try:
-            return original(*args, **kwargs)
-        finally:
-            total[0] += time.perf_counter() - start
-
-    setattr(cls, name, wrapper)
-    return (lambda: setattr(cls, name, original)), total
 
 
 def run(scenario) -> dict:

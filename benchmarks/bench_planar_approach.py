@@ -38,7 +38,7 @@ import time
 
 import numpy as np
 import yaml
-from machine import machine_line, write_results  # benchmarks/machine.py, beside this script
+from machine import machine_line, timed, write_results  # benchmarks/machine.py, beside this script
 
 from rpod.diagrams.controllers.planar_approach import campaign_rows, planner_config
 from rpod.diagrams.plots_planar import write_campaign_maps
@@ -130,22 +130,6 @@ Written from the run above (the closed-loop numbers are deterministic; times var
   grid projects to half an hour to an hour on two workers depending on the load, Case Study 2's
   480 runs to 5-10 min.
 """
-
-
-def timed(cls, name: str):
-    """Wraps cls.name to add up its wall time; returns (restore, [total seconds])."""
-    total = [0.0]
-    original = getattr(cls, name)
-
-    def wrapper(*args, **kwargs):
-        start = time.perf_counter()
-        try:
-            return original(*args, **kwargs)
-        finally:
-            total[0] += time.perf_counter() - start
-
-    setattr(cls, name, wrapper)
-    return (lambda: setattr(cls, name, original)), total
 
 
 def run(scenario) -> dict:

@@ -1,10 +1,11 @@
 """What the benchmarks share (imported by the scripts beside it): the machine line they print
-above their tables, and writing a results file."""
+above their tables, writing a results file, and timing a method in place."""
 
 import importlib.metadata
 import os
 import pathlib
 import platform
+import time
 
 
 def machine_line() -> str:
@@ -30,3 +31,19 @@ def write_results(path: pathlib.Path, lines: list[str]) -> None:
     print(text, end="")
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(text)
+
+
+def timed(cls, name: str):
+    """Wraps cls.name to add up its wall time; returns (restore, [total seconds])."""
+    total = [0.0]
+    original = getattr(cls, name)
+
+    def wrapper(*args, **kwargs):
+        start = time.perf_counter()
+        try:
+            return original(*args, **kwargs)
+        finally:
+            total[0] += time.perf_counter() - start
+
+    setattr(cls, name, wrapper)
+    return (lambda: setattr(cls, name, original)), total
