@@ -92,28 +92,41 @@ def _tokens(path: str) -> list[tuple[str, list[int]]]:
     return tokens
 
 
-def _union_choice(annotation, rest: list[str], path: str, walked: str):
+def _union_choice(annotation, rest: list, path: str, walked: str):
     """The choice of a typed union (Scenario.controller) that a path continues into.
 
-    Resolved by the field named next: the first choice that has it (the registered controller
-    configs; e.g. `controller.hold_distance_m` is !HoldPoint's). Whether the scenario's actual
-    controller has it is checked where the value is set (apply_overrides).
+    Resolved by the rest of the path: the first choice in which all of it exists (e.g.
+    `controller.planner.dt_s` is !SoftCapture's even though !PlanarApproach has a `planner`
+    too), else the first that has the field named next, so that the error names the deeper
+    field. Whether the scenario's actual controller has it is checked where the value is set
+    (apply_overrides).
     """
     choices = [a for a in typing.get_args(annotation) if is_record(a)]
-    for choice in choices:
-        if rest[0] in schema_fields(choice):
-            return choice
+    having = [c for c in choices if rest[0][0] in schema_fields(c)]
+    for choice in having:
+        try:
+            _walk(choice, rest, path, walked)
+        except ScenarioError:
+            continue
+        return choice
+    if having:
+        return having[0]
     known = ", ".join(f"!{c.__name__}" for c in choices)
-    raise ScenarioError(path, f"no controller ({known}) has a field {quote(rest[0])} in {walked}")
+    raise ScenarioError(
+        path, f"no controller ({known}) has a field {quote(rest[0][0])} in {walked}"
+    )
 
 
 def field_annotation(path: str):
     """The schema type of a dotted Scenario path; ScenarioError(path, ...) if there is none."""
-    annotation, walked = Scenario, ""
-    tokens = _tokens(path)
+    return _walk(Scenario, _tokens(path), path, "")
+
+
+def _walk(annotation, tokens: list, path: str, walked: str):
+    """The type the tokens lead to from annotation (field_annotation's walk)."""
     for position, (name, indices) in enumerate(tokens):
         if typing.get_origin(annotation) is typing.Union:
-            annotation = _union_choice(annotation, [n for n, _ in tokens[position:]], path, walked)
+            annotation = _union_choice(annotation, tokens[position:], path, walked)
         if not is_record(annotation):
             raise ScenarioError(path, f"{walked} is a value, it has no field {quote(name)}")
         hints = schema_fields(annotation)
