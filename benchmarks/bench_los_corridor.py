@@ -22,7 +22,12 @@ import os
 import pathlib
 import sys
 
-from machine import machine_line, timed, write_results  # benchmarks/machine.py, beside this script
+from machine import (
+    best_of_alternating,
+    machine_line,
+    timed,
+    write_results,
+)  # benchmarks/machine.py, beside this script
 
 from rpod.diagrams.simulate import simulate
 from rpod.planners.los_corridor_mpc import LosCorridorMpc
@@ -66,13 +71,7 @@ def main() -> None:
         unfiltered = dataclasses.replace(
             scenario, controller=dataclasses.replace(scenario.controller, filter=False)
         )
-        full, reference = [], []
-        for r in range(args.repeat):
-            pair = [(full, scenario), (reference, unfiltered)]
-            for bucket, case in pair if r % 2 == 0 else pair[::-1]:
-                bucket.append(run(case))
-        best = max(full, key=lambda m: m["summary"]["real_time_factor"])
-        ref = max(reference, key=lambda m: m["summary"]["real_time_factor"])
+        best, ref = best_of_alternating(run, scenario, unfiltered, args.repeat)
         s = best["summary"]
         wall = s["wall_time_s"]
         rows.append(

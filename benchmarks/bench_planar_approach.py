@@ -38,7 +38,12 @@ import time
 
 import numpy as np
 import yaml
-from machine import machine_line, timed, write_results  # benchmarks/machine.py, beside this script
+from machine import (
+    best_of_alternating,
+    machine_line,
+    timed,
+    write_results,
+)  # benchmarks/machine.py, beside this script
 
 from rpod.diagrams.controllers.planar_approach import campaign_rows, planner_config
 from rpod.diagrams.plots_planar import write_campaign_maps
@@ -159,13 +164,7 @@ def closed_loop(repeat: int) -> list[str]:
     for label, overrides in VARIANTS:
         scenario = apply_overrides(base, overrides)
         coast = dataclasses.replace(scenario, controller=None)
-        full, reference = [], []
-        for r in range(repeat):
-            pair = [(full, scenario), (reference, coast)]
-            for bucket, case in pair if r % 2 == 0 else pair[::-1]:
-                bucket.append(run(case))
-        best = max(full, key=lambda m: m["summary"]["real_time_factor"])
-        ref = max(reference, key=lambda m: m["summary"]["real_time_factor"])
+        best, ref = best_of_alternating(run, scenario, coast, repeat)
         s = best["summary"]
         wall = s["wall_time_s"]
         rows.append(

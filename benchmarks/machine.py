@@ -47,3 +47,18 @@ def timed(cls, name: str):
 
     setattr(cls, name, wrapper)
     return (lambda: setattr(cls, name, original)), total
+
+
+def best_of_alternating(run, case, reference, repeat: int) -> tuple[dict, dict]:
+    """(best, best reference): run(case) and run(reference) `repeat` times each, alternating
+    which goes first, each the run with the highest summary real_time_factor."""
+    full, ref = [], []
+    for r in range(repeat):
+        pair = [(full, case), (ref, reference)]
+        for bucket, scenario in pair if r % 2 == 0 else pair[::-1]:
+            bucket.append(run(scenario))
+
+    def best(runs):
+        return max(runs, key=lambda m: m["summary"]["real_time_factor"])
+
+    return best(full), best(ref)

@@ -365,6 +365,31 @@ def _grid(fig, nrows, ncols, left=0.85, right=0.25, bottom=0.6, top=0.75, **kwar
     )
 
 
+def _stacked_time_figure(log: _Log, title: str, heading: str, panels, draw) -> Figure:
+    """A column of time panels sharing their time axis (the paper figures' layout).
+
+    Args:
+        panels: [(kind, relative height)], top to bottom.
+        draw: draw(kind, ax, edges) fills one panel; a 'status' panel gets a time-only grid.
+    """
+    edges = _time_edges(log.t)
+    heights = [h for _, h in panels]
+    fig = Figure(figsize=(13, 2.8 * sum(heights) + 1.3), dpi=_DPI)
+    fig.suptitle(_title(title, heading))
+    gs = _grid(fig, len(panels), 1, left=1.1, right=2.8, hspace=0.45, height_ratios=heights)
+    axes = []
+    for i, (kind, _) in enumerate(panels):
+        ax = fig.add_subplot(gs[i, 0], sharex=axes[0] if axes else None)
+        axes.append(ax)
+        draw(kind, ax, edges)
+        ax.grid(True, which="both", axis="x" if kind == "status" else "both", alpha=0.3)
+    for ax in axes[:-1]:
+        ax.tick_params(labelbottom=False)
+    axes[-1].set_xlabel(log.t_label)
+    axes[-1].set_xlim(edges[0], edges[-1])
+    return fig
+
+
 def _heatmap(fig, ax, cax, t_edges: np.ndarray, values: np.ndarray, label: str, cmap: str) -> None:
     n = values.shape[1]
     mesh = ax.pcolormesh(

@@ -76,6 +76,7 @@ from rpod.diagrams.plots import (
     _grid,
     _has_finite,
     _Log,
+    _stacked_time_figure,
     _time_edges,
     _title,
 )
@@ -515,21 +516,14 @@ def figure_coupled_nmpc(log: _Log, title: str) -> Figure | None:
         panels.append(("status", 0.4))
     if not panels:
         return None
-    edges = _time_edges(log.t)
-    heights = [h for _, h in panels]
-    fig = Figure(figsize=(13, 2.8 * sum(heights) + 1.3), dpi=_DPI)
-    fig.suptitle(_title(title, "Coupled 6-DOF NMPC: line of sight and solver (paper 001)"))
-    gs = _grid(fig, len(panels), 1, left=1.1, right=2.8, hspace=0.45, height_ratios=heights)
-    axes = []
-    for i, (kind, _) in enumerate(panels):
-        ax = fig.add_subplot(gs[i, 0], sharex=axes[0] if axes else None)
-        axes.append(ax)
+
+    def draw(kind, ax, edges):
         if kind == "los":
             _panel_los(ax, log, edges)
         elif kind == "solve":
             _panel_solve_time(ax, log)
         else:
             _panel_status(ax, log, edges)
-        ax.grid(True, which="both", axis="x" if kind == "status" else "both", alpha=0.3)
-    _finish_time_axes(axes, log, edges)
-    return fig
+
+    heading = "Coupled 6-DOF NMPC: line of sight and solver (paper 001)"
+    return _stacked_time_figure(log, title, heading, panels, draw)

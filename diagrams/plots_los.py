@@ -76,8 +76,8 @@ from rpod.diagrams.plots import (
     _has_finite,
     _hold_points,
     _Log,
+    _stacked_time_figure,
     _start_end,
-    _time_edges,
     _title,
 )
 from rpod.models.los_corridor import VIOLATION_TOLERANCE_M, LosCorridor
@@ -408,15 +408,8 @@ def figure_los_corridor(log: _Log, title: str) -> Figure | None:
         panels.append(("status", 0.4))
     if not panels:
         return None
-    edges = _time_edges(log.t)
-    heights = [h for _, h in panels]
-    fig = Figure(figsize=(13, 2.8 * sum(heights) + 1.3), dpi=_DPI)
-    fig.suptitle(_title(title, "Rotating LOS corridor guidance (paper 004, Secs. 5-7)"))
-    gs = _grid(fig, len(panels), 1, left=1.1, right=2.8, hspace=0.45, height_ratios=heights)
-    axes = []
-    for i, (kind, _) in enumerate(panels):
-        ax = fig.add_subplot(gs[i, 0], sharex=axes[0] if axes else None)
-        axes.append(ax)
+
+    def draw(kind, ax, edges):
         if kind == "range":
             _panel_range(ax, log, edges)
         elif kind == "faces":
@@ -425,12 +418,9 @@ def figure_los_corridor(log: _Log, title: str) -> Figure | None:
             _panel_acceleration(ax, log)
         else:
             _panel_status(ax, log, edges)
-        ax.grid(True, which="both", axis="x" if kind == "status" else "both", alpha=0.3)
-    for ax in axes[:-1]:
-        ax.tick_params(labelbottom=False)
-    axes[-1].set_xlabel(log.t_label)
-    axes[-1].set_xlim(edges[0], edges[-1])
-    return fig
+
+    heading = "Rotating LOS corridor guidance (paper 004, Secs. 5-7)"
+    return _stacked_time_figure(log, title, heading, panels, draw)
 
 
 # --------------------------------------------------------------------------------------------
