@@ -134,26 +134,17 @@ _CHECK_SAMPLES_PER_STEP = 10
 
 
 @dataclasses.dataclass
-class PlanarApproachConfig:
-    """Problem data and solver settings (defaults: Sec. V-A with a 0.3 m, 10 kg chaser).
+class PlanarPlannerSettings:
+    """How the approach is planned: the settings of `PlanarApproachConfig` that are not problem
+    data (a scenario's plug-in holds these and derives the problem data).
 
     Args:
-        omega_target_rad_s: The target's spin rate (non-zero; Sec. V-A: 0.1 rad/s).
-        theta_approach_rad: Target attitude at closest approach (Sec. V-A: 3 pi / 4).
-        theta_target0_rad: Target attitude at t = 0 (not in the paper; 0).
-        chaser_side_m: l_s of eq. 10 (not in the paper; 0.3 m like the target).
-        target_side_m: l_t of eq. 10 (Sec. V-A: 0.3 m).
-        chaser_mass_kg: m (not in the paper; 10 kg).
-        chaser_inertia_kg_m2: I about z (a 0.3 m square of 10 kg: m s^2 / 6 = 0.15 kg m^2).
-        max_force_N: Force limit per body axis (planar_8 with F_thr = 0.3 N: 2 F_thr = 0.6 N).
-        max_torque_Nm: Torque limit (planar_8 with F_thr = 0.3 N, s = 0.3 m: 2 s F_thr).
         wrench_limit: "planar_8" (per-axis box plus the planar_8 coupling cut, the exact set)
             or "box" (per-axis box only).
         goal_standoff_m: d_goal, distance of the goal from the target centre on the docking
             normal; 0 means the geometry's default (r_relaxed + l_margin, 0.36 m here).
         w_goal: Weight of the terminal position error in (5) (Sec. V: 100).
         w_u: Weight of the wrench in (5) (Sec. V: 10).
-        dt_s: Largest NLP step (Sec. V's control period, 0.1 s); see the module docstring.
         duration_min_s: Shortest candidate duration.
         duration_max_s: Longest candidate duration.
         max_duration_candidates: At most this many candidates, the shortest first.
@@ -169,20 +160,10 @@ class PlanarApproachConfig:
             or "guess" (the spiral guess).
     """
 
-    omega_target_rad_s: float = 0.1
-    theta_approach_rad: float = 0.75 * math.pi
-    theta_target0_rad: float = 0.0
-    chaser_side_m: float = 0.3
-    target_side_m: float = 0.3
-    chaser_mass_kg: float = 10.0
-    chaser_inertia_kg_m2: float = 0.15
-    max_force_N: float = 0.6
-    max_torque_Nm: float = 0.18
     wrench_limit: str = "planar_8"
     goal_standoff_m: float = 0.0
     w_goal: float = 100.0
     w_u: float = 10.0
-    dt_s: float = 0.1
     duration_min_s: float = 1.0
     duration_max_s: float = 200.0
     max_duration_candidates: int = 3
@@ -194,6 +175,36 @@ class PlanarApproachConfig:
     nlp_tolerance: float = 1e-6
     smooth_max_sharpness: float = 20.0
     nlp_warm_start: str = "scp"
+
+
+@dataclasses.dataclass
+class PlanarApproachConfig(PlanarPlannerSettings):
+    """Problem data (here) and solver settings (`PlanarPlannerSettings`'s fields); defaults:
+    Sec. V-A with a 0.3 m, 10 kg chaser.
+
+    Args:
+        omega_target_rad_s: The target's spin rate (non-zero; Sec. V-A: 0.1 rad/s).
+        theta_approach_rad: Target attitude at closest approach (Sec. V-A: 3 pi / 4).
+        theta_target0_rad: Target attitude at t = 0 (not in the paper; 0).
+        chaser_side_m: l_s of eq. 10 (not in the paper; 0.3 m like the target).
+        target_side_m: l_t of eq. 10 (Sec. V-A: 0.3 m).
+        chaser_mass_kg: m (not in the paper; 10 kg).
+        chaser_inertia_kg_m2: I about z (a 0.3 m square of 10 kg: m s^2 / 6 = 0.15 kg m^2).
+        max_force_N: Force limit per body axis (planar_8 with F_thr = 0.3 N: 2 F_thr = 0.6 N).
+        max_torque_Nm: Torque limit (planar_8 with F_thr = 0.3 N, s = 0.3 m: 2 s F_thr).
+        dt_s: Largest NLP step (Sec. V's control period, 0.1 s); see the module docstring.
+    """
+
+    omega_target_rad_s: float = 0.1
+    theta_approach_rad: float = 0.75 * math.pi
+    theta_target0_rad: float = 0.0
+    chaser_side_m: float = 0.3
+    target_side_m: float = 0.3
+    chaser_mass_kg: float = 10.0
+    chaser_inertia_kg_m2: float = 0.15
+    max_force_N: float = 0.6
+    max_torque_Nm: float = 0.18
+    dt_s: float = 0.1
 
     def validate(self) -> None:
         """Raises ValueError('field: message') naming the first bad field."""

@@ -98,6 +98,7 @@ from rpod.models import planar_approach as pa
 from rpod.models.frames import rotations_from_wxyz
 from rpod.models.shapes import separation_distance
 from rpod.models.thrusters import STANDARD_GRAVITY_M_S2
+from rpod.planners import planar_approach as planner
 from rpod.planners.planar_approach import (
     PlanarApproachConfig,
     PlanarPlan,
@@ -121,7 +122,7 @@ LOGGED = {
 """Log key -> the tracker's output port (held at its samples)."""
 
 # The planner's fields that are problem data (derived from the scenario, `planner_config`);
-# every other PlanarApproachConfig field is a setting mirrored by PlanarPlannerSettings.
+# every other PlanarApproachConfig field is a setting, from PlanarPlannerSettings.
 DERIVED_FIELDS = (
     "omega_target_rad_s",
     "theta_target0_rad",
@@ -136,46 +137,15 @@ DERIVED_FIELDS = (
 
 
 @dataclasses.dataclass
-class PlanarPlannerSettings:
-    """The planner's settings (rpod.planners.planar_approach.PlanarApproachConfig's fields that
-    are not problem data; the problem data come from the scenario).
+class PlanarPlannerSettings(planner.PlanarPlannerSettings):
+    """The planner's settings (rpod.planners.planar_approach.PlanarPlannerSettings: their docs)
+    and the approach attitude; the problem data come from the scenario.
 
     Args:
         theta_approach_deg: Target attitude at closest approach (Sec. V-A: 3 pi / 4 = 135 deg).
-        goal_standoff_m: d_goal on the docking normal; 0: the geometry's default (r_relaxed +
-            l_margin, 0.36 m for two 0.3 m squares).
-        w_goal: Weight of the terminal position error in eq. 5 (Sec. V-A: 100).
-        w_u: Weight of the wrench in eq. 5 (Sec. V-A: 10).
-        wrench_limit: 'planar_8' (the thrusters' exact set) or 'box' (per-axis box only).
-        duration_min_s: Shortest candidate duration (Sec. III-A).
-        duration_max_s: Longest candidate duration.
-        max_duration_candidates: At most this many candidates, the shortest first.
-        keepout_samples_per_step: Keep-out points per step; 0 for automatic.
-        solver: 'scp' (default), 'ipopt' (the paper's) or 'snopt'.
-        max_iterations: SCP iterations (QPs) per candidate.
-        nlp_max_iterations: IPOPT max_iter / SNOPT major iterations limit.
-        scp_tolerance: SCP stop on the relative cost change.
-        nlp_tolerance: IPOPT / SNOPT tolerances.
-        smooth_max_sharpness: Sharpness of the NLP's smooth keep-out terms.
-        nlp_warm_start: Where 'ipopt' and 'snopt' start: 'scp' (the SCP's answer) or 'guess'.
     """
 
     theta_approach_deg: float = 135.0
-    goal_standoff_m: float = 0.0
-    w_goal: float = 100.0
-    w_u: float = 10.0
-    wrench_limit: str = "planar_8"
-    duration_min_s: float = 1.0
-    duration_max_s: float = 200.0
-    max_duration_candidates: int = 3
-    keepout_samples_per_step: int = 0
-    solver: str = "scp"
-    max_iterations: int = 40
-    nlp_max_iterations: int = 3000
-    scp_tolerance: float = 1e-6
-    nlp_tolerance: float = 1e-6
-    smooth_max_sharpness: float = 20.0
-    nlp_warm_start: str = "scp"
 
     def planner_fields(self) -> dict:
         """These settings as PlanarApproachConfig keyword arguments (theta in radians)."""
