@@ -52,6 +52,10 @@ Solvers (`CoupledNmpcSettings.solver`):
   (~1.2 s), warm-started in the closed loop in 4-6 iterations.
 - "rti": one SQP iteration per solve from the shifted previous solution (the first solve, with
   no previous solution, is run to convergence).
+- "casadi_ipopt": the paper's own setup, IPOPT with the exact Hessian of the Lagrangian through
+  CasADi (rpod.planners.coupled_casadi), on the same transcription. It converges on T = 480 s
+  from Sec. IV's cold start (~90 iterations) and, warm-started with the shifted previous solution
+  and multipliers, in ~12 iterations per closed-loop step (benchmarks/bench_coupled_nmpc.py).
 - "ipopt" (the paper's solver) and "snopt" through Drake's MathematicalProgram. Drake hands
   IPOPT no second derivatives (limited-memory quasi-Newton) and SNOPT its own quasi-Newton
   Hessian. Measured (2 shared cores): neither converges on T = 480 s from Sec. IV's start, IPOPT
@@ -86,6 +90,7 @@ from scipy.integrate import solve_ivp
 from rpod.models import coupled_relative as cr
 from rpod.models.thrusters import gimbal_polyhedron
 from rpod.planners import coupled_shooting as cs
+from rpod.planners.coupled_casadi import CasadiTranscription
 from rpod.planners.coupled_sqp import CoupledSqp, SqpSettings
 
 NLP_STATE_SIZE = cr.PAPER_STATE_SIZE
@@ -127,7 +132,17 @@ _STATUS = {
 }
 
 
-SOLVERS = ("ipopt", "snopt", "sqp", "rti")
+_IPOPT_STATUS = {
+    "Solve_Succeeded": NmpcStatus.SOLVED,
+    "Solved_To_Acceptable_Level": NmpcStatus.ACCEPTABLE,
+    "Maximum_Iterations_Exceeded": NmpcStatus.MAX_ITERATIONS,
+    "Maximum_CpuTime_Exceeded": NmpcStatus.MAX_ITERATIONS,
+    "Maximum_WallTime_Exceeded": NmpcStatus.MAX_ITERATIONS,
+    "Infeasible_Problem_Detected": NmpcStatus.INFEASIBLE,
+}
+"""IPOPT's return status names (as CasADi reports them) -> NmpcStatus; others are FAILED."""
+
+SOLVERS = ("ipopt", "snopt", "sqp", "rti", "casadi_ipopt")
 
 
 @dataclasses.dataclass
@@ -138,16 +153,21 @@ class CoupledNmpcSettings:
         horizon_s: T of eq. 22 [s].
         intervals: N, the number of piecewise-constant input intervals.
         rk4_substeps: RK4 steps per interval in the defects (>= 2: module docstring).
-        solver: "ipopt", "snopt", "sqp" (Gauss-Newton SQP to convergence) or "rti" (one SQP
-            iteration per solve from the warm start: rpod.planners.coupled_sqp).
+        solver: "ipopt", "snopt", "sqp" (Gauss-Newton SQP to convergence), "rti" (one SQP
+            iteration per solve from the warm start: rpod.planners.coupled_sqp) or
+            "casadi_ipopt" (IPOPT with exact Hessians: rpod.planners.coupled_casadi).
         max_iterations: IPOPT's max_iter / SNOPT's major iterations limit / SQP iterations.
-        tolerance: IPOPT's tol and constr_viol_tol / SNOPT's major optimality and feasibility
+        tolerance: IPOPT's tol and constr_viol_tol ("casadi_ipopt": tol, with IPOPT's default
+            constr_viol_tol of 1e-4) / SNOPT's major optimality and feasibility
             tolerances.
         los_slack_weight: rho of the L1 penalty on the LOS slacks (1 / m, per unit of cost).
         los_half_angle_rad: the LOS polyhedron's angle (eq. 18; Sec. IV: pi / 4).
         max_relative_rate_rad_s: a box on each entry of w_TC_T at the nodes 1..N (not in the
             paper; module docstring, "Trust of the integrator").
         sqp: The SQP's own settings (its max_iterations is replaced by `max_iterations`).
+        compile_derivatives: "casadi_ipopt" only: compile the intervals' derivatives to C
+            (rpod.planners.coupled_casadi.compile_functions; ~40 s once, then cached on disk).
+            Off, or without a C compiler, CasADi's virtual machine evaluates them, ~5x slower.
     """
 
     horizon_s: float = cr.HORIZON_S
@@ -160,6 +180,7 @@ class CoupledNmpcSettings:
     los_half_angle_rad: float = cr.LOS_HALF_ANGLE_RAD
     max_relative_rate_rad_s: float = 0.02
     sqp: SqpSettings = dataclasses.field(default_factory=SqpSettings)
+    compile_derivatives: bool = True
 
     def validate(self) -> None:
         """Raises ValueError('field: message') naming the first bad field."""
@@ -198,7 +219,7 @@ class NmpcResult:
         solve_time_s: Wall time of the solver call [s].
         iterations: The solver's iteration count (IPOPT iterations, SNOPT major iterations),
             None when it could not be read.
-        solver: "ipopt" or "snopt".
+        solver: The settings' solver.
     """
 
     status: NmpcStatus
@@ -298,7 +319,26 @@ class CoupledNmpc:
         self.interval_s = s.horizon_s / self.N
         self.A_p = cr.los_polyhedron(self.params.p_TPt_T, s.los_half_angle_rad)
         self._target_nodes = np.zeros((self.N + 1, cr.STATE_SIZE - NLP_STATE_SIZE))
-        if s.solver in ("sqp", "rti"):
+        self._casadi: CasadiTranscription | None = None
+        self._multipliers = None  # casadi_ipopt: the last solve's (lam_x, lam_g)
+        self.derivatives_message = ""
+        """casadi_ipopt: how the derivatives are evaluated (compiled library or CasADi's VM)."""
+        if s.solver == "casadi_ipopt":
+            self.prog, self._sqp = None, None
+            self._casadi = CasadiTranscription(
+                self.params,
+                self.weights,
+                self.N,
+                self.interval_s,
+                s.rk4_substeps,
+                self.A_p,
+                s.los_slack_weight,
+                s.max_relative_rate_rad_s,
+                {"max_iter": int(s.max_iterations), "tol": float(s.tolerance)},
+                compile=s.compile_derivatives,
+            )
+            self.derivatives_message = self._casadi.derivatives_message
+        elif s.solver in ("sqp", "rti"):
             self.prog = None
             self._sqp: CoupledSqp | None = CoupledSqp(
                 self.params,
@@ -535,6 +575,8 @@ class CoupledNmpc:
         x0_nlp = x0[:NLP_STATE_SIZE]
         if self._sqp is not None:
             return self._solve_sqp(x0, x_guess, u_guess, cold=warm_start is None)
+        if self._casadi is not None:
+            return self._solve_casadi(x0, x_guess, u_guess, warm=warm_start is not None)
         self._initial.evaluator().UpdateLowerBound(x0_nlp)
         self._initial.evaluator().UpdateUpperBound(x0_nlp)
 
@@ -571,6 +613,33 @@ class CoupledNmpc:
         else:
             message = details.ConvertStatusToString()
         return self._result(status, message, result, elapsed, iterations, x0)
+
+    def _solve_casadi(self, x0, x_guess, u_guess, warm: bool) -> NmpcResult:
+        """IPOPT with exact Hessians through CasADi (rpod.planners.coupled_casadi); a warm
+        start also carries the previous solve's multipliers, shifted one interval."""
+        tr = self._casadi
+        guess = tr.pack(x_guess, u_guess, self._slack_guess(x_guess))
+        multipliers = (
+            tr.shift_multipliers(*self._multipliers) if warm and self._multipliers else None
+        )
+        out = tr.solve(x0[:NLP_STATE_SIZE], self._target_nodes, guess, multipliers)
+        status = _IPOPT_STATUS.get(out["status"], NmpcStatus.FAILED)
+        self._multipliers = (out["lam_x"], out["lam_g"]) if out["lam_x"] is not None else None
+        x_nlp, u, slack = tr.unpack(out["w"])
+        x = np.hstack([x_nlp, self._target_nodes])
+        return NmpcResult(
+            status=status,
+            solver_message=out["status"],
+            u=u,
+            x=x,
+            slack=slack,
+            stage_costs=tr.stage_costs(x_nlp, u, self._target_nodes),
+            cost=out["cost"],
+            interval_s=self.interval_s,
+            solve_time_s=out["solve_time_s"],
+            iterations=out["iterations"],
+            solver=self.settings.solver,
+        )
 
     def _solve_sqp(self, x0, x_guess, u_guess, cold: bool) -> NmpcResult:
         """SQP to convergence, or one RTI step (rpod.planners.coupled_sqp)."""

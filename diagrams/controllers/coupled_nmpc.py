@@ -182,6 +182,13 @@ def coupled_params(scenario) -> cr.CoupledRelativeParams:
     )
 
 
+def make_planner(scenario) -> CoupledNmpcPlanner:
+    """The NMPC of the scenario's `!CoupledNmpc` block, on the scenario's problem data."""
+    config = scenario.controller
+    weights = cr.CoupledNmpcWeights(Q_xi=config.integral_weight * np.eye(3))
+    return CoupledNmpcPlanner(coupled_params(scenario), weights, dataclasses.replace(config.nmpc))
+
+
 def truth_relative_states(params: cr.CoupledRelativeParams, log: dict) -> np.ndarray:
     """x (n, 39) of the truth at every log sample, by cr.relative_state_from_absolute.
 
@@ -274,10 +281,7 @@ class CoupledNmpcPlugin(ControllerPlugin):
 
     def add_to_diagram(self, builder, scenario, sensed) -> ControllerWiring:
         config = scenario.controller
-        weights = cr.CoupledNmpcWeights(Q_xi=config.integral_weight * np.eye(3))
-        planner = CoupledNmpcPlanner(
-            coupled_params(scenario), weights, dataclasses.replace(config.nmpc)
-        )
+        planner = make_planner(scenario)
         controller = builder.AddNamedSystem(
             self.system_name,
             CoupledNmpcController(planner, config.period_s(), config.integral_step_s),
