@@ -4,10 +4,12 @@ dynamic keep-out zone (KOS), as plain functions and one geometry dataclass.
 Owns: eqs. 1-2 (`planar_derivative`) and their forward-Euler step eq. 7 (`euler_step`), the
 exact zero-order-hold step that checkers re-integrate with (`zoh_step`), r_safe of eq. 10, the
 target attitude and docking normal, the chaser's final attitude (hard constraint 6), the goal
-point, the KOS of Sec. III-C with its State I / State II switching (`KeepOutGeometry`) in three
-forms (the exact signed distance-like q of eq. 9, smooth terms for an NLP, circumscribing
-polygons for sequential convex programming), and the body-frame wrench limits of the planar_8
-thrusters (`planar_8_wrench_limits`, `body_wrench_excess`).
+point, the chaser's heading from facing the docking face (`face_heading_error`), the KOS of
+Sec. III-C with its State I / State II switching (`KeepOutGeometry`) in three forms (the exact
+signed distance-like q of eq. 9, smooth terms for an NLP, circumscribing polygons for
+sequential convex programming), the overlap test of the true squares (`squares_gap`), and the
+body-frame wrench limits of the planar_8 thrusters (`planar_8_wrench_limits`,
+`body_wrench_excess`).
 Does not own: any optimisation (rpod.planners.planar_approach), time or Drake systems.
 
 Scalar types: `planar_derivative`, `euler_step`, `to_target_frame`, `body_wrench` and
@@ -43,9 +45,21 @@ distance of the centres) and l_margin = 0.1 l_s:
 - State II (final approach): the disc is relaxed on the docking side (x_T > 0) to radius
   r_relaxed = H + l_margin (face-to-face contact plus the margin); the rear half-disc of radius
   r_safe and the two half-ellipses stay.
-- Switching (memoryless, from the chaser's current relative position, as the paper's "state"):
-  State II iff |p| < 1.5 r_safe and the bearing of p from the docking normal is below the angle
-  threshold alpha; otherwise State I.
+- Switching (memoryless, from the chaser's current relative pose, as the paper's "state"):
+  State II iff |p| < 1.5 r_safe, the bearing of p from the docking normal is below the angle
+  threshold alpha, and (when the chaser's heading is given) the chaser is aligned with the
+  docking face: |wrap(theta_c - theta_t - pi)| <= `alignment_tolerance_rad` (3 deg); otherwise
+  State I. The paper's text defines State II as "close to and properly aligned with the target"
+  and relaxes the zone because "in State II, the chaser is aligned with the target's docking
+  surface" (Sec. III-C), but its two thresholds are on the position only; without the heading
+  condition a chaser still turned tens of degrees off the face may enter the relaxed zone and
+  its square overlaps the target's (Sec. V-A's position-only plan did, 77-84 s). rpod makes the
+  alignment part of the switch (`face_heading_error`); `state(p_T)` and `q(p_T)` without a
+  heading are the position-only switching.
+- alignment_tolerance_rad: the chaser's square turned by delta from aligned reaches
+  h (cos delta + sin delta) instead of h along each target axis; sampling the allowed State II
+  region (tests/models/test_planar_approach.py), two 0.3 m squares keep a gap of 16 mm aligned,
+  8.7 mm at 3 deg, 1.5 mm at 6 deg and touch from ~7 deg. 3 deg leaves half the aligned gap.
 - alpha: an aligned chaser (at its final attitude, faces parallel) moving radially inwards
   along a bearing phi first touches the target at lateral offset H tan(phi): face on face while
   H tan(phi) < H, corner to corner at phi = pi / 4 (the diagonal of eq. 10's worst case).
@@ -82,6 +96,9 @@ SWITCH_DISTANCE_FACTOR = 1.5
 
 MARGIN_FRACTION = 0.1
 """l_margin as a fraction of the chaser's side l_s (eq. 10)."""
+
+ALIGNMENT_TOLERANCE_RAD = math.radians(3.0)
+"""Default heading tolerance of State II (module docstring: "alignment_tolerance_rad")."""
 
 
 # ----------------------------------------------------------------------------------- dynamics
@@ -148,6 +165,11 @@ def chaser_final_attitude(theta_approach_rad: float, theta_chaser0_rad: float) -
     return theta_chaser0_rad + float(wrap_to_pi(face_to_face - theta_chaser0_rad))
 
 
+def face_heading_error(theta_chaser_rad, theta_target_rad):
+    """wrap(theta_c - theta_t - pi): the chaser's heading from facing the docking face (..)."""
+    return wrap_to_pi(np.asarray(theta_chaser_rad, float) - theta_target_rad - math.pi)
+
+
 def goal_position(theta_approach_rad: float, standoff_m: float) -> np.ndarray:
     """x_goal of eq. 5: the point at the standoff on the docking normal at arrival (W, m)."""
     return standoff_m * np.array([math.cos(theta_approach_rad), math.sin(theta_approach_rad)])
@@ -182,13 +204,16 @@ class KeepOutGeometry:
     Attributes:
         chaser_side_m: l_s.
         target_side_m: l_t.
+        alignment_tolerance_rad: State II needs the chaser's heading within this of facing the
+            docking face (module docstring).
     """
 
     chaser_side_m: float = 0.3
     target_side_m: float = 0.3
+    alignment_tolerance_rad: float = ALIGNMENT_TOLERANCE_RAD
 
     def __post_init__(self):
-        for name in ("chaser_side_m", "target_side_m"):
+        for name in ("chaser_side_m", "target_side_m", "alignment_tolerance_rad"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{name}: must be positive, got {value!r}")
@@ -254,12 +279,20 @@ class KeepOutGeometry:
         p_T = np.asarray(p_T, dtype=float)
         return np.abs(np.arctan2(p_T[..., 1], p_T[..., 0]))
 
-    def state(self, p_T) -> np.ndarray:
-        """The KOS state (STATE_I or STATE_II) of points given in T (.., 2), memoryless."""
+    def state(self, p_T, heading_error=None) -> np.ndarray:
+        """The KOS state (STATE_I or STATE_II) of points given in T (.., 2), memoryless.
+
+        heading_error (..): `face_heading_error` of the chaser at each point; State II then
+        also needs |heading_error| <= alignment_tolerance_rad. None: the position-only switch.
+        """
         p_T = np.asarray(p_T, dtype=float)
         near = np.hypot(p_T[..., 0], p_T[..., 1]) < self.switch_distance_m
-        aligned = self.bearing_rad(p_T) < self.switch_angle_rad
-        return np.where(near & aligned, STATE_II, STATE_I)
+        in_cone = self.bearing_rad(p_T) < self.switch_angle_rad
+        region = near & in_cone
+        if heading_error is not None:
+            error = np.abs(wrap_to_pi(heading_error))
+            region = region & (error <= self.alignment_tolerance_rad)
+        return np.where(region, STATE_II, STATE_I)
 
     def _half_ellipse_q(self, x, y, sign: float) -> np.ndarray:
         a, b = self.ellipse_semi_axes_m
@@ -279,10 +312,10 @@ class KeepOutGeometry:
         disc = r - np.where(x > 0.0, self.r_relaxed_m, self.r_safe_m)
         return np.minimum(disc, ellipses)
 
-    def q(self, p_T) -> np.ndarray:
-        """q of eq. 9 in the state the points are in (the paper's switching) [m]."""
+    def q(self, p_T, heading_error=None) -> np.ndarray:
+        """q of eq. 9 in the state the points are in (the switching of `state`) [m]."""
         p_T = np.asarray(p_T, dtype=float)
-        state = self.state(p_T)
+        state = self.state(p_T, heading_error)
         return np.where(state == STATE_II, self.q_state(p_T, STATE_II), self.q_state(p_T, STATE_I))
 
     # ------------------------------------------------------------- polygons (convex pieces)
@@ -330,6 +363,27 @@ def _disc_facets(radius, angles, flat_normal=None):
         normals = np.vstack([normals, flat_normal])
         offsets = np.append(offsets, 0.0)
     return normals, offsets
+
+
+def squares_gap(p_T, heading_error, chaser_side_m: float, target_side_m: float) -> np.ndarray:
+    """The separating-axis gap of the chaser's and the target's squares [m] (..): > 0 iff they
+    do not overlap (a lower bound of their distance; exact overlap test).
+
+    p_T: the chaser centre in T (.., 2); heading_error: `face_heading_error` (..): a square is
+    symmetric under quarter turns, so only the heading relative to the target's axes matters.
+    The four candidate axes are the two squares' edge normals.
+    """
+    p_T = np.asarray(p_T, dtype=float)
+    phi = np.asarray(heading_error, dtype=float)
+    c, s = np.abs(np.cos(phi)), np.abs(np.sin(phi))
+    h_c, h_t = 0.5 * chaser_side_m, 0.5 * target_side_m
+    reach_c = h_c * (c + s)  # the turned chaser's half-extent along a target axis
+    gaps = [np.abs(p_T[..., 0]) - h_t - reach_c, np.abs(p_T[..., 1]) - h_t - reach_c]
+    cos_phi, sin_phi = np.cos(phi), np.sin(phi)
+    for u in (np.stack([cos_phi, sin_phi], -1), np.stack([-sin_phi, cos_phi], -1)):
+        along = np.abs(np.sum(p_T * u, axis=-1))
+        gaps.append(along - h_c - h_t * (np.abs(u[..., 0]) + np.abs(u[..., 1])))
+    return np.max(gaps, axis=0)
 
 
 def keepout_smooth_terms(

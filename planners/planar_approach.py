@@ -9,18 +9,32 @@ tracking controller, the allocation to thrusters or the pulse modulation.
 
 The problem, for one duration T = N dt:
     min  w_goal |p_N - p_goal|^2 + sum_k (E_kin,k + w_u |F_k|^2) dt                      (5)
+         + w_v |v_N - omega_t z x p_N|^2                                              (5')
     s.t. x_0 = x_init, theta_N = theta_finish                                          (6)
          x_k+1 = x_k + f(x_k, F_k) dt  (forward Euler of eq. 2)                        (7)
          body wrench R(theta_k)^T [F_x, F_y], tau within the planar_8 limits           (8)
-         q(p, t) >= 0 at every knot and between knots, the KOS state switching         (9)
+         q(p, theta, t) >= 0 at every knot and between knots, the KOS state switching  (9)
 E_kin = m |v|^2 / 2 + I omega^2 / 2 (the chaser's kinetic energy); the goal term is on the
-position (the final attitude is the hard constraint 6). F is the world wrench (the paper's
-decision variable); its limits (8) are the body-frame limits of the thruster layout, which are
-the real ones: per body axis |f_b| <= max_force_N, |tau| <= max_torque_Nm, and for planar_8
-also the coupling cut |f_bx| + |f_by| + 2 (F_max / tau_max) |tau| <= 2 F_max, which makes the
-set exactly the thrusters' (rpod.models.planar_approach.body_wrench_excess;
-`wrench_limit="box"` drops the cut). `planar_8_wrench_limits(side, F_thr)` derives the two
-numbers from the layout.
+position (the final attitude is the hard constraint 6).
+
+Two departures from the paper (both said where they act):
+- (5'), the terminal relative velocity (the chaser's velocity seen from the target frame at T,
+  Fig. 7's quantity), weighted by `w_terminal_velocity` (default 1000 s^2/m^2 x the cost's
+  units; 0 gives the paper's eq. 5). The paper leaves it out and reports ~0.03 m/s at the end
+  (Sec. V-C: "introducing an explicit terminal relative-velocity term could further reduce the
+  residual motion"); Sec. V-A's plan ends at 0.014 m/s without it and 0.003 m/s with it.
+- The KOS state needs the heading (rpod.models.planar_approach): State II (the relaxed zone)
+  only where the chaser faces the docking face within alignment_tolerance_rad, the paper's
+  "close to and properly aligned" (Sec. III-C) made a condition. Position-only switching let
+  Sec. V-A's plan put the chaser's centre in the relaxed zone while it was still turned
+  ~165 deg off the face, and the squares overlapped from 77 to 84 s of the plan itself.
+
+F is the world wrench (the paper's decision variable); its limits (8) are the body-frame limits of
+the thruster layout, which are the real ones: per body axis |f_b| <= max_force_N, |tau| <=
+max_torque_Nm, and for planar_8 also the coupling cut |f_bx| + |f_by| + 2 (F_max / tau_max) |tau|
+<= 2 F_max, which makes the set exactly the thrusters'
+(rpod.models.planar_approach.body_wrench_excess; `wrench_limit="box"` drops the cut).
+`planar_8_wrench_limits(side, F_thr)` derives the two numbers from the layout.
 
 Time step. The NLP step is the control period dt_s (Sec. V: 10 Hz), shortened for each candidate
 to dt = T / ceil(T / dt_s) so that N dt = T exactly and the target attitude at arrival is
@@ -34,11 +48,13 @@ every step, each against the KOS at its own time (default: enough points that th
 at most 0.02 rad between two, at least 2 per step: 2 at 0.1 rad/s, 10 at 2 rad/s). The checker
 evaluates q at 10 points per step.
 
-KOS switching, made smooth for the solver. The paper's state is a function of the chaser's
-relative position (memoryless; rpod.models.planar_approach). Each sample point carries a label,
-fixed while one convex (or smooth) subproblem is solved and updated between solves from the
-latest iterate: State II where the point is in the switching region and within
-`_LABEL_BAND` (0.1 r_safe) of the State I zone or inside it; State I elsewhere. A State II label
+KOS switching, made smooth for the solver. The state is a function of the chaser's relative
+pose (memoryless; rpod.models.planar_approach). Each sample point carries a label, fixed
+while one convex (or smooth) subproblem is solved and updated between solves from the latest
+iterate: State II where the point "wants" it (in the switching region and within
+`_LABEL_BAND` (0.1 r_safe) of the State I zone or inside it) and the planned heading faces the
+docking face within the tolerance at both knots of its step (the heading error is linear
+along a step); State I elsewhere. A State II label also bounds the heading at those knots, and
 comes with the switching conditions themselves as constraints (bearing below alpha, |p| below
 1.5 r_safe, both shrunk by 1e-4), so a point labelled II is in State II, and a point labelled I
 keeps out of the State I zone, which contains the State II zone: every iterate satisfies the
@@ -49,34 +65,43 @@ region and releases points that have left it.
 Methods (`solver`):
 - "scp" (default): sequential convex programming on MathematicalProgram with Clarabel. The cost
   and the dynamics are separable in translation and rotation, and only the wrench limits (8)
-  couple them (through theta in the body-frame rotation and through the torque's share of the
-  planar_8 set). So the attitude (theta, omega, tau) is solved first as one QP (its cost terms,
-  eq. 6, eq. 7, |tau| <= max_torque_Nm); with theta_k and tau_k known, (8) is linear in the
-  world force, and the translation is solved by a sequence of QPs. In each, every KOS piece (a
-  disc, a half-disc, a half-ellipse; circumscribed polygons of 48 facets per half, at most
-  0.25 mm larger) is replaced, at every sample, by the facet half-plane that the previous
-  iterate satisfies best; each such half-plane is disjoint from its piece, so the QP is a convex
-  restriction, its solution is KOS-feasible, and the previous iterate stays feasible (the cost
-  cannot increase). Keep-out rows carry one slack per sample with an L1 penalty (1e4 per m),
-  which makes a start inside the zone or a guess that cannot be flown recoverable; a converged
-  answer with slack left is reported INFEASIBLE. Stops when labels and facets are unchanged and
-  the (penalised) cost changed less than `scp_tolerance` (relative); not settled after
-  `max_iterations` QPs is ITERATION_LIMIT.
-  The decomposition can lose optimality only where (8) is active: the attitude QP does not
-  know which way, or how hard, the translation will push (the body-frame rotation of the force
-  limits and the torque's share of the planar_8 set); the checker verifies (8) on the result
-  either way, and "ipopt"/"snopt" below polish the joint problem.
+  and the heading condition of State II couple them (through theta in the body-frame rotation
+  and through the torque's share of the planar_8 set). So the attitude (theta, omega, tau) is
+  a QP (its cost terms, eq. 6, eq. 7, |tau| <= max_torque_Nm, and |theta_k - theta_face,k| <=
+  the tolerance plus an L1-penalised slack at the knots of the samples that want State II),
+  re-solved whenever that set of samples changes (`_solve_scp`); with theta_k and tau_k known,
+  (8) is linear in the world force, and the translation is solved by a sequence of QPs. In
+  each, every KOS piece (a disc, a half-disc, a half-ellipse; circumscribed polygons of 48
+  facets per half, at most 0.25 mm larger) is replaced, for every pair of consecutive samples,
+  by the facet half-plane that the previous iterate satisfies best at both (so the chord
+  between them keeps out too), with `_CHORD_MARGIN_M` (0.2 mm) to spare for the bend of the
+  straight world segment in the turning target frame; each such half-plane is disjoint from its
+  piece, so the QP is a convex restriction, its solution is KOS-feasible, and the previous
+  iterate stays feasible unless the attitude or the labels changed. Keep-out rows carry one
+  slack per sample with an L1 penalty (1e4 per m), which makes a start inside the zone or a
+  guess that cannot be flown recoverable; a converged answer with slack left is reported
+  INFEASIBLE. Stops when labels and facets are unchanged and the (penalised) cost changed less
+  than `scp_tolerance` (relative); not settled after `max_iterations` QPs is ITERATION_LIMIT.
+  The decomposition can lose optimality where (8) is active and where State II is wanted: the
+  attitude QP does not know which way, or how hard, the translation will push (the body-frame
+  rotation of the force limits and the torque's share of the planar_8 set), nor how much the
+  translation would gain by an earlier State II; the checker verifies (8) and the KOS on the
+  result either way, and "ipopt"/"snopt" below polish the joint problem (with the State II
+  labels, and so the heading bounds, of their start).
 - "ipopt" (the paper's solver) and "snopt": the joint NLP (attitude and translation together)
   through Drake, the KOS as smooth terms (`keepout_smooth_terms`, at least 1e-3: ~0.2 mm), (8)
   as expressions of theta and F, re-solved once if the labels changed. Started from the SCP
   answer (`nlp_warm_start="scp"`, default) they confirm it in seconds; from the spiral guess
   ("guess") they reach the same optimum but slowly, because Drake gives IPOPT no second
   derivatives (limited-memory quasi-Newton) and SNOPT builds its own quasi-Newton Hessian:
-  measured on 2 shared cores at the shortest Sec. V-A candidate (N = 236), IPOPT from the guess
+  measured (before (5') and the heading condition of State II) on 2 shared cores at the
+  shortest Sec. V-A candidate (N = 236), IPOPT from the guess
   took 315-330 s and SNOPT 57 s, to J = 1.80027, against 0.4 s for "scp" (J = 1.80076: its
   polygons are up to 0.25 mm larger than the shapes) and 2-7 s for either NLP from the SCP
   answer; at N = 864 and 1493 the polish alone takes 1-10 min
-  (benchmarks/results/planar_nlp.md).
+  (benchmarks/results/planar_nlp.md). With (5')'s term Drake's IPOPT stopped in "Error in step
+  computation" from the SCP answer at N = 24 (w_terminal_velocity 100 and 1000; a
+  SOLVER_FAILED status), where SNOPT confirms it; with w_terminal_velocity = 0 IPOPT does.
 
 Duration search (Sec. III-A): the candidates are the times at which the target attitude equals
 theta_approach, T_m = ((theta_approach - theta_t0) sgn(omega) mod 2 pi + 2 pi m) / |omega|, within
@@ -120,12 +145,20 @@ _LABEL_BAND = 0.1
 """A sample in the switching region within this many r_safe of the State I zone gets State II."""
 _REGION_SHRINK = 1e-4
 """Relative shrink of the switching region's thresholds in the constraints (strict inequality)."""
+_ACCUMULATE_AFTER = 8
+"""SCP: from this iteration on, the attitude's alignment set only grows (`_solve_scp`)."""
 _MAX_TURN_BETWEEN_SAMPLES_RAD = 0.02
 """Automatic sampling: the target turns at most this much between two keep-out samples."""
 _FACETS_PER_HALF = 48
 """Facets per half-shape of the circumscribed KOS polygons (0.25 mm on r_safe = 0.45 m)."""
 _DISTANCE_FACETS = 8
 """Facets of the inscribed polygon for |p| < 1.5 r_safe across the switching cone."""
+_CHORD_MARGIN_M = 2e-4
+"""SCP: every keep-out row holds with this much to spare. Between two samples the chaser
+moves on a straight line in W, which the turning target frame bends: off the chord in T by at
+most (dtheta^2 / 8) (|p| + 2 |v| / |omega_t|) for a turn dtheta between the samples (<= 0.02
+rad with the automatic sampling: 5e-5 (|p| + 2 |v| / |omega_t|), 0.1 mm at 0.7 m and 0.5 m/s
+per rad/s); the margin keeps that bend out of the pieces and inside the switching region."""
 _NLP_TERM_MARGIN = 1e-3
 """Lower bound of the NLP's keep-out terms (~0.2 mm on r_safe = 0.45 m): the answer sits on
 the constraints at the samples, and the margin covers the chord between them."""
@@ -145,6 +178,8 @@ class PlanarPlannerSettings:
             normal; 0 means the geometry's default (r_relaxed + l_margin, 0.36 m here).
         w_goal: Weight of the terminal position error in (5) (Sec. V: 100).
         w_u: Weight of the wrench in (5) (Sec. V: 10).
+        w_terminal_velocity: Weight of the terminal relative velocity in (5'), beyond the
+            paper (module docstring); 0 gives the paper's eq. 5.
         duration_min_s: Shortest candidate duration.
         duration_max_s: Longest candidate duration.
         max_duration_candidates: At most this many candidates, the shortest first.
@@ -164,6 +199,7 @@ class PlanarPlannerSettings:
     goal_standoff_m: float = 0.0
     w_goal: float = 100.0
     w_u: float = 10.0
+    w_terminal_velocity: float = 1000.0
     duration_min_s: float = 1.0
     duration_max_s: float = 200.0
     max_duration_candidates: int = 3
@@ -232,7 +268,7 @@ class PlanarApproachConfig(PlanarPlannerSettings):
                 raise ValueError(f"{name}: must be a finite number, got {value!r}")
         if self.omega_target_rad_s == 0.0:
             raise ValueError("omega_target_rad_s: must be non-zero (the durations come from it)")
-        for name in ("w_u", "duration_min_s", "goal_standoff_m"):
+        for name in ("w_u", "w_terminal_velocity", "duration_min_s", "goal_standoff_m"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name}: must be >= 0, got {value!r}")
@@ -331,9 +367,10 @@ class PlanarPlan:
             segments for the position and attitude, and the velocities under the held wrench).
         wrench_traj: The feed-forward wrench as a zero-order hold (Drake's: the last step's
             wrench at T, and beyond T when evaluated there; a tracker stops it at T).
-        keepout_state: The KOS state (1 or 2) at each knot (N + 1,), the paper's switching.
+        keepout_state: The KOS state (1 or 2) at each knot (N + 1,), the switching with the
+            heading condition (rpod.models.planar_approach).
         cost: J of eq. 5.
-        cost_terms: {"goal", "kinetic", "control"}: the three terms of J.
+        cost_terms: {"goal", "kinetic", "control", "terminal_velocity"}: the terms of J.
         goal_position: p_goal in W.
         theta_finish: The final attitude imposed (eq. 6).
         x0: The initial state given.
@@ -511,24 +548,70 @@ def _distance_facets(geometry: pa.KeepOutGeometry) -> tuple[np.ndarray, float]:
     return np.column_stack([np.cos(mid), np.sin(mid)]), radius
 
 
-def _labels(geometry: pa.KeepOutGeometry, p_T: np.ndarray) -> np.ndarray:
-    """STATE_II where the point is in the region and near/inside the State I zone."""
+def _wanted(geometry: pa.KeepOutGeometry, p_T: np.ndarray) -> np.ndarray:
+    """Samples that want State II: in the region and near/inside the State I zone (bool)."""
     near = geometry.q_state(p_T, pa.STATE_I) < _LABEL_BAND * geometry.r_safe_m
-    return np.where(_in_region(geometry, p_T) & near, pa.STATE_II, pa.STATE_I)
+    return _in_region(geometry, p_T) & near
+
+
+def _face_heading(config: PlanarApproachConfig, t: np.ndarray, theta_f: float) -> np.ndarray:
+    """theta_f + omega_t (t - T): the heading facing the docking face, on theta_f's branch
+    (theta_t(T) + pi = theta_f mod 2 pi: T is a candidate duration)."""
+    return theta_f + config.omega_target_rad_s * (t - t[-1])
+
+
+def _aligned_samples(config, samples, theta: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Samples whose step has the chaser's heading within the State II tolerance at both ends
+    (the heading error is linear in t along a step: theta and theta_t both are), bool."""
+    theta_t = pa.target_attitude(t, config.theta_target0_rad, config.omega_target_rad_s)
+    error = np.abs(pa.face_heading_error(theta, theta_t))
+    knot_ok = error <= config.geometry.alignment_tolerance_rad * (1.0 - _REGION_SHRINK)
+    return knot_ok[samples.k] & (knot_ok[samples.k + 1] | (samples.s == 0.0))
+
+
+def _labels(wanted: np.ndarray, aligned: np.ndarray) -> np.ndarray:
+    """STATE_II where the sample wants it and the heading is aligned, STATE_I elsewhere."""
+    return np.where(wanted & aligned, pa.STATE_II, pa.STATE_I)
+
+
+def _alignment_targets(samples, wanted, theta_bar, face, N):
+    """(knots to align (N + 1,) bool, their face heading (N + 1,)): both ends of the step of
+    every sample that wants State II; each contiguous run of such knots on one 2 pi branch:
+    theta_f's when the run ends at T, else the one nearest the previous heading theta_bar at
+    the run's first knot."""
+    knots = np.zeros(N + 1, dtype=bool)
+    j = np.flatnonzero(wanted)
+    knots[samples.k[j]] = True
+    knots[samples.k[j][samples.s[j] > 0.0] + 1] = True
+    target = face.copy()
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], knots.astype(int), [0]])))
+    for first, end in zip(edges[::2], edges[1::2]):
+        if end - 1 < N:
+            turns = round((theta_bar[first] - face[first]) / (2.0 * math.pi))
+            target[first:end] += 2.0 * math.pi * turns
+    return knots, target
 
 
 # ------------------------------------------------------------------------------- the costs
 
 
 def cost_terms(config: PlanarApproachConfig, X: np.ndarray, U: np.ndarray, dt: float) -> dict:
-    """The three terms of J (eq. 5) of a knot sequence X (N + 1, 6), U (N, 3)."""
+    """The terms of J of a knot sequence X (N + 1, 6), U (N, 3): eq. 5's three and (5')'s
+    terminal relative velocity (0 with w_terminal_velocity = 0)."""
     goal = config.w_goal * float(np.sum((X[-1, :2] - config.goal_position) ** 2))
+    relative = _relative_velocity_map(config.omega_target_rad_s) @ X[-1, [0, 1, 3, 4]]
+    terminal = config.w_terminal_velocity * float(np.sum(relative**2))
     kinetic = 0.5 * (
         config.chaser_mass_kg * np.sum(X[:-1, 3:5] ** 2)
         + config.chaser_inertia_kg_m2 * np.sum(X[:-1, 5] ** 2)
     )
     control = config.w_u * float(np.sum(U**2))
-    return {"goal": goal, "kinetic": float(kinetic) * dt, "control": control * dt}
+    return {
+        "goal": goal,
+        "kinetic": float(kinetic) * dt,
+        "control": control * dt,
+        "terminal_velocity": terminal,
+    }
 
 
 def _solver_word(result) -> str:
@@ -544,9 +627,16 @@ def _solver_word(result) -> str:
 # ------------------------------------------------------------------------ SCP: the attitude
 
 
-def _attitude_qp(config, x0, theta_f, N, dt):
+def _attitude_qp(config, x0, theta_f, N, dt, align=None):
     """Eq. 5's rotational terms under eqs. 6-7 and |tau| <= max_torque_Nm: (theta, omega, tau)
-    or None, with Clarabel's word."""
+    or None, with Clarabel's word.
+
+    align = (knots (N + 1,) bool, face heading (N + 1,)): at those knots |theta - face| <=
+    alignment_tolerance_rad (shrunk by 1e-3) + sigma, sigma >= 0 with an L1 penalty
+    (_SLACK_PENALTY per rad): the attitude turns onto the docking face where the translation
+    wants State II, as far as the torque allows; where it cannot, sigma > 0 and the samples
+    there stay State I (`_labels`).
+    """
     prog = MathematicalProgram()
     th = prog.NewContinuousVariables(N + 1, "theta")
     w = prog.NewContinuousVariables(N + 1, "omega")
@@ -566,6 +656,21 @@ def _attitude_qp(config, x0, theta_f, N, dt):
     Q = np.diag([config.chaser_inertia_kg_m2 * dt, 2.0 * config.w_u * dt])
     for k in range(N):
         prog.AddQuadraticCost(Q, np.zeros(2), [w[k], tau[k]], is_convex=True)
+    if align is not None and np.any(align[0]):
+        knots = np.flatnonzero(align[0])
+        face = align[1][knots]
+        sigma = prog.NewContinuousVariables(len(knots), "sigma")
+        prog.AddBoundingBoxConstraint(0.0, np.inf, sigma)
+        bound = config.geometry.alignment_tolerance_rad * (1.0 - 10.0 * _REGION_SHRINK)
+        pick = sp.csr_matrix(
+            (np.ones(len(knots)), (np.arange(len(knots)), knots)), shape=(len(knots), N + 1)
+        )
+        eye = sp.eye(len(knots), format="csr")
+        A = sp.bmat([[pick, -eye], [pick, eye]], format="csc")
+        lower = np.concatenate([np.full(len(knots), -np.inf), face - bound])
+        upper = np.concatenate([face + bound, np.full(len(knots), np.inf)])
+        prog.AddLinearConstraint(A, lower, upper, np.concatenate([th, sigma]))
+        prog.AddLinearCost(_SLACK_PENALTY * np.ones(len(knots)), 0.0, sigma)
     result = ClarabelSolver().Solve(prog)
     word = _solver_word(result)
     if not result.is_success():
@@ -599,25 +704,22 @@ class _TranslationScp:
         A = sp.bmat([[shift, -dt * pick, None], [None, shift, -dt / m * I_F]], format="csc")
         variables = np.concatenate([self.P.ravel(), self.V.ravel(), self.F.ravel()])
         prog.AddLinearEqualityConstraint(A, np.zeros(4 * N), variables)
-        # Eq. 8 at the known attitude and torque: rows of R(theta_k)^T F_k.
-        c, s = np.cos(theta[:N]), np.sin(theta[:N])
-        blocks = [np.array([[ck, sk], [-sk, ck]]) for ck, sk in zip(c, s)]
-        fmax = config.max_force_N
-        lower = [np.full(2 * N, -fmax)]
-        rows = [sp.block_diag(blocks, format="csr")]
-        if config.wrench_limit == "planar_8":
-            kappa = 2.0 * fmax / config.max_torque_Nm
-            room = np.maximum(2.0 * fmax - kappa * np.abs(tau), 0.0)
-            sums = [np.array([[ck - sk, sk + ck], [ck + sk, sk - ck]]) for ck, sk in zip(c, s)]
-            rows.append(sp.block_diag(sums, format="csr"))
-            lower.append(-np.repeat(room, 2))
-        lb = np.concatenate(lower)
-        prog.AddLinearConstraint(sp.vstack(rows).tocsc(), lb, -lb, self.F.ravel())
+        # Eq. 8 at the known attitude and torque (`set_attitude`).
+        A, lb = self._force_rows(theta, tau)
+        self.force_limits = prog.AddLinearConstraint(A, lb, -lb, self.F.ravel())
         # Eq. 5: kinetic energy and wrench per step, the goal term, the slack penalty.
         Q = np.diag([m * dt, m * dt, 2.0 * config.w_u * dt, 2.0 * config.w_u * dt])
         for k in range(N):
             prog.AddQuadraticCost(Q, np.zeros(4), [*self.V[k], *self.F[k]], is_convex=True)
         prog.AddQuadraticErrorCost(config.w_goal * np.eye(2), config.goal_position, self.P[N])
+        if config.w_terminal_velocity > 0.0:  # (5'): w_v |v_N - omega_t z x p_N|^2
+            M = _relative_velocity_map(config.omega_target_rad_s)
+            prog.AddQuadraticCost(
+                2.0 * config.w_terminal_velocity * M.T @ M,
+                np.zeros(4),
+                [*self.P[N], *self.V[N]],
+                is_convex=True,
+            )
         prog.AddLinearCost(_SLACK_PENALTY * np.ones(samples.size), 0.0, self.S)
         self.keepout = prog.AddLinearConstraint(
             sp.csc_matrix((1, 2 * (N + 1) + samples.size)),
@@ -641,32 +743,66 @@ class _TranslationScp:
             np.concatenate([[0.0, 0.0], -np.full(len(distance_normals), distance_offset)]),
         )
 
+    def _force_rows(self, theta: np.ndarray, tau: np.ndarray):
+        """Eq. 8 as rows of R(theta_k)^T F_k (and the planar_8 cut's sums) and their bound."""
+        config, N = self.config, self.N
+        c, s = np.cos(theta[:N]), np.sin(theta[:N])
+        blocks = [np.array([[ck, sk], [-sk, ck]]) for ck, sk in zip(c, s)]
+        fmax = config.max_force_N
+        lower = [np.full(2 * N, -fmax)]
+        rows = [sp.block_diag(blocks, format="csr")]
+        if config.wrench_limit == "planar_8":
+            kappa = 2.0 * fmax / config.max_torque_Nm
+            room = np.maximum(2.0 * fmax - kappa * np.abs(tau), 0.0)
+            sums = [np.array([[ck - sk, sk + ck], [ck + sk, sk - ck]]) for ck, sk in zip(c, s)]
+            rows.append(sp.block_diag(sums, format="csr"))
+            lower.append(-np.repeat(room, 2))
+        return sp.vstack(rows).tocsc(), np.concatenate(lower)
+
+    def set_attitude(self, theta: np.ndarray, tau: np.ndarray) -> None:
+        """Reloads eq. 8's rows for a new attitude plan (theta, tau)."""
+        A, lb = self._force_rows(theta, tau)
+        self.force_limits.evaluator().UpdateCoefficients(A, lb, -lb)
+
     def update_keepout(self, P_bar: np.ndarray, labels: np.ndarray) -> tuple:
-        """Chooses the facets at P_bar and loads the keep-out rows; returns the choice."""
+        """Chooses the facets at P_bar and loads the keep-out rows; returns the choice.
+
+        Per pair of consecutive samples (a segment) and per piece of the segment's zone (State
+        II's when both samples are labelled II, else State I's, which contains it), one facet
+        that both samples must satisfy: the one P_bar satisfies best at the worse of the two.
+        A half-plane is convex, so the chord between the two samples in T keeps out of the
+        piece too: a path cannot cut a piece's corner between samples that chose different
+        facets. Each State II sample also keeps the switching region's rows.
+        """
         samples, N = self.samples, self.N
         p_T = samples.to_target(samples.positions(P_bar))
         c_all, s_all = np.cos(samples.theta_t), np.sin(samples.theta_t)
         row_j, row_n, row_b, choice = [], [], [], []
+        first = np.arange(max(samples.size - 1, 1))
+        second = np.minimum(first + 1, samples.size - 1)
+        both_ii = (labels[first] == pa.STATE_II) & (labels[second] == pa.STATE_II)
+        segment_state = np.where(both_ii, pa.STATE_II, pa.STATE_I)
         for state in (pa.STATE_I, pa.STATE_II):
-            j = np.flatnonzero(labels == state)
-            if not j.size:
+            a, b = first[segment_state == state], second[segment_state == state]
+            if not a.size:
                 continue
             for normals, offsets in self.pieces[state]:
-                signed = p_T[j] @ normals.T - offsets
+                signed = np.minimum(p_T[a] @ normals.T, p_T[b] @ normals.T) - offsets
                 best = np.argmax(signed, axis=1)
                 choice.append(best)
+                row_j += [a, b]
+                row_n += [normals[best], normals[best]]
+                row_b += [offsets[best], offsets[best]]
+        j = np.flatnonzero(labels == pa.STATE_II)
+        if j.size:
+            normals, offsets = self.region_rows
+            for i in range(len(offsets)):
                 row_j.append(j)
-                row_n.append(normals[best])
-                row_b.append(offsets[best])
-            if state == pa.STATE_II:
-                normals, offsets = self.region_rows
-                for i in range(len(offsets)):
-                    row_j.append(j)
-                    row_n.append(np.broadcast_to(normals[i], (j.size, 2)))
-                    row_b.append(np.full(j.size, offsets[i]))
+                row_n.append(np.broadcast_to(normals[i], (j.size, 2)))
+                row_b.append(np.full(j.size, offsets[i]))
         j = np.concatenate(row_j)
         n_T = np.vstack(row_n)
-        b = np.concatenate(row_b)
+        b = np.concatenate(row_b) + _CHORD_MARGIN_M
         c, s = c_all[j], s_all[j]
         n_W = np.column_stack([c * n_T[:, 0] - s * n_T[:, 1], s * n_T[:, 0] + c * n_T[:, 1]])
         k, w = samples.k[j], samples.s[j]
@@ -696,18 +832,44 @@ class _TranslationScp:
         return (get(self.P), get(self.V), get(self.F), get(self.S)), word
 
 
+def _relative_velocity_map(omega_t: float) -> np.ndarray:
+    """M with M [p_x, p_y, v_x, v_y] = v - omega_t z x p (the velocity seen from the target,
+    expressed in W; its norm is the target frame's, Fig. 7)."""
+    return np.array([[0.0, omega_t, 1.0, 0.0], [-omega_t, 0.0, 0.0, 1.0]])
+
+
 def _solve_scp(config, x0, duration_s, guess):
-    """The "scp" method for one duration: (status, word, iterations, X, U)."""
+    """The "scp" method for one duration: (status, word, iterations, X, U).
+
+    Each iteration: the samples that want State II (`_wanted`, from the last translation)
+    -> the attitude QP, asked to face the docking face at their knots (re-solved only when
+    that set changed) -> labels: State II where wanted and aligned -> a translation QP at that
+    attitude. From iteration _ACCUMULATE_AFTER on, the set the attitude aligns for only grows
+    (the union of the wanted sets since): a sample at the edge of the final approach can
+    otherwise toggle the attitude and the translation in a cycle. Settled when that set, the
+    labels and the facets are unchanged and the cost moved less than scp_tolerance: the last
+    translation and attitude were then solved with the same labels.
+    """
     N, dt = _grid(config, duration_s)
+    t = np.arange(N + 1) * dt
     theta_f = pa.chaser_final_attitude(config.theta_approach_rad, x0[2])
-    attitude, word = _attitude_qp(config, x0, theta_f, N, dt)
+    face = _face_heading(config, t, theta_f)
+    samples = _samples(config, N, dt)
+    geometry = config.geometry
+    P_bar, theta_bar = guess[0][:, :2], guess[0][:, 2]
+    wanted = _wanted(geometry, samples.to_target(samples.positions(P_bar)))
+    aligning = wanted  # the samples the attitude QP faces the docking face for
+
+    def attitude_for(aligning, theta_bar):
+        align = _alignment_targets(samples, aligning, theta_bar, face, N)
+        return _attitude_qp(config, x0, theta_f, N, dt, align)
+
+    attitude, word = attitude_for(aligning, theta_bar)
     if attitude is None:
         return PlanarPlanStatus.INFEASIBLE, f"attitude QP: {word}", 0, None, None
     theta, omega, tau = attitude
-    samples = _samples(config, N, dt)
+    labels = _labels(wanted, _aligned_samples(config, samples, theta, t))
     scp = _TranslationScp(config, x0, N, dt, theta, tau, samples)
-    P_bar = guess[0][:, :2]
-    labels = _labels(scp.geometry, samples.to_target(samples.positions(P_bar)))
     choice, cost, status = None, math.inf, PlanarPlanStatus.ITERATION_LIMIT
     iterations = 0
     for iterations in range(1, config.max_iterations + 1):
@@ -719,13 +881,24 @@ def _solve_scp(config, x0, duration_s, guess):
         X = np.column_stack([P, theta, V, omega])
         U = np.column_stack([F, tau])
         new_cost = sum(cost_terms(config, X, U, dt).values()) + _SLACK_PENALTY * slack.sum()
-        new_labels = _labels(scp.geometry, samples.to_target(samples.positions(P)))
+        new_wanted = _wanted(geometry, samples.to_target(samples.positions(P)))
+        new_aligning = new_wanted | aligning if iterations >= _ACCUMULATE_AFTER else new_wanted
+        same_aligning = np.array_equal(new_aligning, aligning)
+        if not same_aligning:
+            attitude, attitude_word = attitude_for(new_aligning, theta)
+            if attitude is None:
+                word = f"attitude QP: {attitude_word}"
+                return PlanarPlanStatus.INFEASIBLE, word, iterations, None, None
+            theta, omega, tau = attitude
+            scp.set_attitude(theta, tau)
+        new_labels = _labels(new_wanted, _aligned_samples(config, samples, theta, t))
         settled = (
-            new_choice == choice
+            same_aligning
+            and new_choice == choice
             and np.array_equal(new_labels, labels)
             and abs(new_cost - cost) <= config.scp_tolerance * (1.0 + abs(new_cost))
         )
-        choice, cost, labels, P_bar = new_choice, new_cost, new_labels, P
+        choice, cost, labels, aligning, P_bar = new_choice, new_cost, new_labels, new_aligning, P
         if settled:
             status = PlanarPlanStatus.SUCCESS
             break
@@ -756,7 +929,13 @@ def _solve_nlp(config, x0, duration_s, guess):
             prefix = "from the SCP answer: "
         else:
             prefix = f"from the guess (SCP: {scp_status.value}): "
-    labels = _labels(geometry, samples.to_target(samples.positions(X_guess[:, :2])))
+    t = np.arange(N + 1) * dt
+
+    def labels_of(X):
+        wanted = _wanted(geometry, samples.to_target(samples.positions(X[:, :2])))
+        return _labels(wanted, _aligned_samples(config, samples, X[:, 2], t))
+
+    labels = labels_of(X_guess)
     options = SolverOptions()
     if config.solver == "snopt":
         options.SetOption(solver.id(), "Major iterations limit", int(config.nlp_max_iterations))
@@ -771,7 +950,7 @@ def _solve_nlp(config, x0, duration_s, guess):
         options.SetOption(solver.id(), "print_level", 0)
     status, word, solves, X, U = PlanarPlanStatus.SOLVER_FAILED, "", 0, X_guess, U_guess
     for solves in (1, 2):  # one re-solve with the labels of the first answer
-        prog, Xv, Uv = _nlp_program(config, x0, N, dt, samples, labels)
+        prog, Xv, Uv = _nlp_program(config, x0, N, dt, samples, labels, X[:, 2])
         start = np.zeros(prog.num_vars())
         prog.SetDecisionVariableValueInVector(Xv, X, start)
         prog.SetDecisionVariableValueInVector(Uv, U, start)
@@ -785,15 +964,16 @@ def _solve_nlp(config, x0, duration_s, guess):
         if status != PlanarPlanStatus.SUCCESS:
             return status, word, solves, None, None
         X, U = result.GetSolution(Xv), result.GetSolution(Uv)
-        new_labels = _labels(geometry, samples.to_target(samples.positions(X[:, :2])))
+        new_labels = labels_of(X)
         if np.array_equal(new_labels, labels):
             break
         labels = new_labels
     return status, word, solves, X, U
 
 
-def _nlp_program(config, x0, N, dt, samples, labels):
-    """Eqs. 5-9 jointly, the keep-out as `keepout_smooth_terms` at the samples."""
+def _nlp_program(config, x0, N, dt, samples, labels, theta_bar):
+    """Eqs. 5-9 jointly, the keep-out as `keepout_smooth_terms` at the samples; the knots of
+    State II samples facing the docking face (bounds on theta, on theta_bar's branch)."""
     prog = MathematicalProgram()
     X = prog.NewContinuousVariables(N + 1, 6, "x")
     U = prog.NewContinuousVariables(N, 3, "F")
@@ -811,6 +991,18 @@ def _nlp_program(config, x0, N, dt, samples, labels):
     for k in range(N):  # (5)
         prog.AddQuadraticCost(Q, np.zeros(6), np.concatenate([X[k, 3:], U[k]]), is_convex=True)
     prog.AddQuadraticErrorCost(config.w_goal * np.eye(2), config.goal_position, X[N, :2])
+    if config.w_terminal_velocity > 0.0:  # (5')
+        M = _relative_velocity_map(config.omega_target_rad_s)
+        Q_v = 2.0 * config.w_terminal_velocity * M.T @ M
+        prog.AddQuadraticCost(Q_v, np.zeros(4), X[N, [0, 1, 3, 4]], is_convex=True)
+    # State II only facing the docking face (module docstring).
+    wanted = labels == pa.STATE_II
+    if np.any(wanted):
+        face = _face_heading(config, np.arange(N + 1) * dt, theta_f)
+        knots, face = _alignment_targets(samples, wanted, theta_bar, face, N)
+        bound = config.geometry.alignment_tolerance_rad * (1.0 - 10.0 * _REGION_SHRINK)
+        for k in np.flatnonzero(knots):
+            prog.AddBoundingBoxConstraint(face[k] - bound, face[k] + bound, X[k, 2])
     # (8) in the body frame.
     fmax, tmax = config.max_force_N, config.max_torque_Nm
     prog.AddBoundingBoxConstraint(-tmax, tmax, U[:, 2])
@@ -918,6 +1110,7 @@ def plan_approach(config: PlanarApproachConfig, x0) -> PlanarPlan:
     theta_t = pa.target_attitude(t, config.theta_target0_rad, config.omega_target_rad_s)
     c, s = np.cos(theta_t), np.sin(theta_t)
     p_T = np.column_stack([c * X[:, 0] + s * X[:, 1], -s * X[:, 0] + c * X[:, 1]])
+    state = config.geometry.state(p_T, pa.face_heading_error(X[:, 2], theta_t)).astype(int)
     return PlanarPlan(
         status=PlanarPlanStatus.SUCCESS,
         solver_message=record.solver_message,
@@ -927,7 +1120,7 @@ def plan_approach(config: PlanarApproachConfig, x0) -> PlanarPlan:
         wrench_knots=U,
         x_traj=PiecewisePolynomial.FirstOrderHold(t, X.T),
         wrench_traj=PiecewisePolynomial.ZeroOrderHold(t, held.T),
-        keepout_state=config.geometry.state(p_T).astype(int),
+        keepout_state=state,
         cost=record.cost,
         cost_terms=cost_terms(config, X, U, dt),
         goal_position=config.goal_position,
@@ -949,6 +1142,7 @@ CHECK_TOLERANCES = {
     "wrench_cut_excess_N": 1e-6,
     "allocation_residual": 1e-6,  # planar_8 reproduces the wrench (eq. 14 at zero residual)
     "keepout_q_m": -1e-9,  # a lower bound: q >= 0 everywhere (polygons are circumscribed)
+    "squares_gap_m": 0.0,  # a lower bound: the true squares never overlap (strictly > 0)
 }
 """Pass thresholds of `check_plan` (upper bounds except keepout_q_m, a lower bound)."""
 
@@ -967,12 +1161,15 @@ def check_plan(plan: PlanarPlan, config: PlanarApproachConfig) -> dict:
     final attitude (mod 2 pi) against the request; the target attitude at arrival; the body
     wrench against the limits and, by rpod.models.thrusters.allocate_duty, whether the planar_8
     layout that has these limits reproduces it; the KOS q in the paper's switching state at
-    10 points per step (the straight segments of eq. 7, the target at each point's own time)
-    with the exact shapes (not the planner's polygons); the terminal errors.
+    10 points per step (the straight segments of eq. 7, the target at each point's own time,
+    the heading interpolated as the plan's first-order hold: State II needs it aligned) with
+    the exact shapes (not the planner's polygons); whether the true squares overlap there
+    (separating axes, written out here); the terminal errors, the terminal relative velocity
+    of (5') among them.
 
     Returns:
         A dict of worst values (names as in CHECK_TOLERANCES, plus information entries) and
-        "passed": every CHECK_TOLERANCES entry holds.
+        "passed": every CHECK_TOLERANCES entry holds (squares_gap_m strictly above 0).
     """
     if plan.x_traj is None or plan.wrench_traj is None:
         return {"passed": False, "reason": f"no plan ({plan.status.value})"}
@@ -1018,11 +1215,27 @@ def check_plan(plan: PlanarPlan, config: PlanarApproachConfig) -> dict:
     # Eq. 9 at 10 points per step.
     n = _CHECK_SAMPLES_PER_STEP
     ts = np.append((t[:-1, None] + np.arange(n)[None, :] / n * dt[:, None]).ravel(), T)
-    p = plan.x_traj.vector_values(ts)[:2].T
+    x_s = plan.x_traj.vector_values(ts)
+    p = x_s[:2].T
     theta_t = config.theta_target0_rad + config.omega_target_rad_s * ts
     ct, st = np.cos(theta_t), np.sin(theta_t)
     p_T = np.column_stack([ct * p[:, 0] + st * p[:, 1], -st * p[:, 0] + ct * p[:, 1]])
-    q_values = config.geometry.q(p_T)
+    heading = (x_s[2] - theta_t) % (2.0 * math.pi) - math.pi  # wrap(theta - theta_t - pi)
+    q_values = config.geometry.q(p_T, heading)
+    state = config.geometry.state(p_T, heading)
+    # The true squares at the same points (separating axes: the two squares' edge normals).
+    phi = x_s[2] - theta_t
+    half_c, half_t = 0.5 * config.chaser_side_m, 0.5 * config.target_side_m
+    gaps = []
+    for axis in (0.0, 0.5 * math.pi):  # the target's axes
+        u = np.array([math.cos(axis), math.sin(axis)])
+        reach = half_c * (np.abs(np.cos(phi - axis)) + np.abs(np.sin(phi - axis)))
+        gaps.append(np.abs(p_T @ u) - half_t - reach)
+    for offset in (0.0, 0.5 * math.pi):  # the chaser's axes, in T
+        u = np.column_stack([np.cos(phi + offset), np.sin(phi + offset)])
+        reach = half_t * (np.abs(u[:, 0]) + np.abs(u[:, 1]))
+        gaps.append(np.abs(np.sum(p_T * u, axis=1)) - half_c - reach)
+    gap = np.max(gaps, axis=0)
     goal = config.standoff_m * np.array(
         [math.cos(config.theta_approach_rad), math.sin(config.theta_approach_rad)]
     )
@@ -1038,6 +1251,7 @@ def check_plan(plan: PlanarPlan, config: PlanarApproachConfig) -> dict:
         "wrench_cut_excess_N": float(cut.max()) if config.wrench_limit == "planar_8" else 0.0,
         "allocation_residual": allocation if config.wrench_limit == "planar_8" else 0.0,
         "keepout_q_m": float(q_values.min()),
+        "squares_gap_m": float(gap.min()),
         "keepout_violations": int(np.sum(q_values < CHECK_TOLERANCES["keepout_q_m"])),
         "keepout_samples": len(ts),
         "zoh_drift_position_m": float(drift[:2].max()),
@@ -1046,11 +1260,16 @@ def check_plan(plan: PlanarPlan, config: PlanarApproachConfig) -> dict:
         "terminal_position_error_m": float(np.linalg.norm(p_N - goal)),
         "terminal_speed_m_s": float(np.linalg.norm(v_N)),
         "terminal_relative_speed_m_s": float(np.linalg.norm(relative_v)),
-        "state_ii_fraction": float(np.mean(config.geometry.state(p_T) == pa.STATE_II)),
+        "state_ii_fraction": float(np.mean(state == pa.STATE_II)),
+        "state_ii_max_heading_error_rad": float(
+            np.abs(heading[state == pa.STATE_II]).max() if np.any(state == pa.STATE_II) else 0.0
+        ),
     }
+    lower_bounds = ("keepout_q_m", "squares_gap_m")
     passed = all(
-        report[name] >= bound if name == "keepout_q_m" else report[name] <= bound
+        report[name] >= bound if name in lower_bounds else report[name] <= bound
         for name, bound in CHECK_TOLERANCES.items()
     )
+    passed = passed and report["squares_gap_m"] > 0.0
     report["passed"] = bool(passed)
     return report

@@ -23,7 +23,7 @@ curves, up to 1 - cos(pi / (2 points_per_half)) = 0.05 % inside at 48).
 Timing: at initialization and every `publish_period_s` of simulated time (pass the scene's),
 every call carrying time_in_recording = t: the node's transform X_LT, and the two states'
 visibility whenever the chaser's state changes (`KeepOutGeometry.state` of the chaser's centre
-in T, the paper's memoryless switching). Drawn under "<prefix>/planar_kos", outside the scene's
+in T and its heading from the docking face, the memoryless switching of the model). Drawn under "<prefix>/planar_kos", outside the scene's
 "<prefix>/overlay", which the scene deletes at its own initialization.
 """
 
@@ -157,12 +157,17 @@ class PlanarKeepOutScene(LeafSystem):
         return f"{self.target_path}/state_{state}"
 
     def pose_and_state(self, context) -> tuple[RigidTransform, int]:
-        """(X_LT, the KOS state at the chaser's centre) from the sensed bundle."""
+        """(X_LT, the KOS state of the chaser's pose: its centre and its heading from the
+        docking face) from the sensed bundle."""
         sensed = Sensed.from_vector(self._sensed_port.Eval(context))
         R_IL = rotation_from_wxyz(sensed.q_IL)
         R_LT = R_IL.T @ rotation_from_wxyz(sensed.q_IT)
+        R_LC = R_IL.T @ rotation_from_wxyz(sensed.q_IC)
         p_T = R_LT.T @ sensed.p_LC_L
-        state = int(self._geometry.state(p_T[:2]))
+        heading_error = pa.face_heading_error(
+            math.atan2(R_LC[1, 0], R_LC[0, 0]), math.atan2(R_LT[1, 0], R_LT[0, 0])
+        )
+        state = int(self._geometry.state(p_T[:2], heading_error))
         return RigidTransform(RotationMatrix(R_LT), np.zeros(3)), state
 
     def _Initialize(self, context) -> None:

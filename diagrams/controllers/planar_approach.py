@@ -38,21 +38,23 @@ the reference goes on past the planned arrival T: with 'co_rotate' (default) it 
 final pose fixed in the target frame (turning with the target at omega_target about its centre,
 heading too), so the chaser synchronises with the docking face, as a capture needs; with 'rest'
 the tracker's own behaviour: the final pose at rest in L. The planner has no terminal
-relative-velocity term (the paper says so, Sec. V-C), so at T the relative velocity is what the
-plan leaves (Sec. V-A's plan: 0.014 m/s); the co-rotating hold brings it towards zero.
+relative-velocity term (the paper says so, Sec. V-C); rpod's adds one (`w_terminal_velocity`,
+rpod.planners.planar_approach), so Sec. V-A's plan arrives at 0.003 m/s (0.014 m/s without);
+the co-rotating hold brings what is left towards zero.
 
-Heading (`attitude_reference`). 'plan' (default): the tracker follows the plan's heading, as the
-paper's eq. 12 does. The planner imposes the heading only at the arrival (eq. 6) and lets the
-chaser's centre into State II's relaxed zone (r_relaxed = face-to-face contact plus l_margin)
-whatever its heading; the paper assumes "in State II, the chaser is aligned with the target's
-docking surface" (Sec. III-C), but nothing in eqs. 5-9 makes it so. Measured on Sec. V-A's plan:
-the chaser enters State II at ~63 s still ~165 deg off the face, and the true squares overlap
-from 77.2 s to 83.8 s of the plan itself (`planar_plan_contact_s`, `planar_plan_min_separation_m`:
-the true shapes along the plan's knots). 'face_aligned' (beyond the paper) keeps the plan's path
-and turns the heading onto the docking face, theta_t + pi, over `align_time_s` (20 s) before the
-plan first comes within reach of the target (the half-diagonals' sum plus l_margin), then turns
-with the face: the alignment the paper assumes (`face_aligned_reference`). The bundled scenario
-flies it; the attitude error is then reported against that heading.
+Heading (`attitude_reference`). 'plan' (default, the bundled scenario): the tracker follows
+the plan's heading, as the paper's eq. 12 does. The planner admits State II (the relaxed zone,
+r_relaxed = face-to-face contact plus l_margin) only where its heading faces the docking face
+within 3 deg (the paper's "in State II, the chaser is aligned with the target's docking
+surface", Sec. III-C, made a condition), so the plan turns onto the face before the final
+approach. Before that condition, Sec. V-A's plan entered State II at ~63 s still ~165 deg off
+the face and the true squares overlapped from 77.2 s to 83.8 s of the plan itself
+(`planar_plan_contact_s`, `planar_plan_min_separation_m`: the true shapes along the plan's
+knots). 'face_aligned' (beyond the paper; the remedy before the planner had the condition)
+keeps the plan's path and turns the heading onto the docking face, theta_t + pi, over
+`align_time_s` (20 s) before the plan first comes within reach of the target (the
+half-diagonals' sum plus l_margin), then turns with the face (`face_aligned_reference`); the
+attitude error is then reported against that heading.
 
 Mission (chosen here; the paper states no tolerance): success = the plan is a success AND the
 true shapes never touch during the approach (`separation_m` > 0 at every log sample up to the
@@ -425,8 +427,9 @@ def planar_log(run: PlanarApproachRun, scenario, log: dict) -> dict:
     planar_target_yaw_rad (N) theta_t, unwrapped; planar_relative_velocity_T (N, 2) the chaser's
     velocity relative to the target, seen and expressed in T (Fig. 7): R(theta_t)^T (v -
     omega_t z x p); planar_p_T (N, 2) the chaser centre in T; planar_keepout_state (N) the KOS
-    state (1 or 2) at the chaser's centre; planar_keepout_q_m (N) q of eq. 9 there (< 0 inside
-    the zone); planar_goal_L (N, 2) x_goal; planar_chaser_side_m, planar_target_side_m (N).
+    state (1 or 2) at the chaser's pose (State II needs the heading facing the docking face,
+    rpod.models.planar_approach); planar_keepout_q_m (N) q of eq. 9 there (< 0 inside the
+    zone); planar_goal_L (N, 2) x_goal; planar_chaser_side_m, planar_target_side_m (N).
     """
     config, plan = run.config, run.plan
     t = np.asarray(log["t"], float)
@@ -447,6 +450,7 @@ def planar_log(run: PlanarApproachRun, scenario, log: dict) -> dict:
         [c * v_rel[:, 0] + s * v_rel[:, 1], -s * v_rel[:, 0] + c * v_rel[:, 1]]
     )
     p_T = np.column_stack([c * p[:, 0] + s * p[:, 1], -s * p[:, 0] + c * p[:, 1]])
+    heading_error = pa.face_heading_error(theta, theta_t)
     geometry = config.geometry
     planned = np.full((n, 6), np.nan)
     heading = np.full(n, np.nan)  # the tracked heading: the plan's, or turned to the face
@@ -464,8 +468,8 @@ def planar_log(run: PlanarApproachRun, scenario, log: dict) -> dict:
         "planar_target_yaw_rad": theta_t,
         "planar_relative_velocity_T": v_rel_T,
         "planar_p_T": p_T,
-        "planar_keepout_state": geometry.state(p_T).astype(np.int64),
-        "planar_keepout_q_m": geometry.q(p_T),
+        "planar_keepout_state": geometry.state(p_T, heading_error).astype(np.int64),
+        "planar_keepout_q_m": geometry.q(p_T, heading_error),
         "planar_goal_L": np.tile(config.goal_position, (n, 1)),
         "planar_chaser_side_m": np.full(n, config.chaser_side_m),
         "planar_target_side_m": np.full(n, config.target_side_m),
@@ -488,7 +492,8 @@ def switch_count(log: dict, scenario, period_s: float, until: int | None = None)
 def plan_separation(run: PlanarApproachRun, scenario) -> tuple[float, float | None]:
     """(least separation of the true shapes along the plan [m], first planned time they touch
     or None), at the plan's knots, the target turning as the planner predicts it: whether a
-    contact of the flown run was already in the plan."""
+    contact of the flown run was already in the plan. Exact: bounding spheres skip only the
+    knots that cannot be nearer than the least exact separation found."""
     if not run.plan.success:
         return math.nan, None
     chaser_shape, target_shape = body_polytopes(scenario)
@@ -496,7 +501,12 @@ def plan_separation(run: PlanarApproachRun, scenario) -> tuple[float, float | No
     config, t, X = run.config, run.plan.t_knots, run.plan.x_knots
     theta_t = pa.target_attitude(t, config.theta_target0_rad, config.omega_target_rad_s)
     distance = np.linalg.norm(X[:, :2], axis=1) - reach  # a lower bound: bounding spheres
-    for k in np.flatnonzero(distance <= 0.0):
+    # Exact where the bound is not above the least exact distance so far (nearest first), so
+    # the minimum returned is exact, and every touching knot (bound <= 0) is evaluated.
+    best = math.inf
+    for k in np.argsort(distance):
+        if distance[k] > 0.0 and distance[k] >= best:
+            break
         distance[k] = separation_distance(
             target_shape,
             _rotation_z(theta_t[k]),
@@ -505,6 +515,7 @@ def plan_separation(run: PlanarApproachRun, scenario) -> tuple[float, float | No
             _rotation_z(X[k, 2]),
             np.array([X[k, 0], X[k, 1], 0.0]),
         )
+        best = min(best, distance[k])
     touching = np.flatnonzero(distance <= 0.0)
     return float(max(np.min(distance), 0.0)), float(t[touching[0]]) if len(touching) else None
 

@@ -12,6 +12,7 @@ from scipy.integrate import solve_ivp
 from scipy.spatial import ConvexHull
 
 from rpod.models import planar_approach as pa
+from rpod.models.shapes import ConvexPolytope, separation_distance
 from rpod.models.thrusters import planar_8, wrench_matrix
 
 GEOMETRY = pa.KeepOutGeometry(chaser_side_m=0.3, target_side_m=0.3)
@@ -197,6 +198,57 @@ def test_any_attitude_is_safe_outside_state_i_and_state_ii_cannot_be_left_sidewa
     inside = (GEOMETRY.q(p) >= 0) & (np.hypot(p[:, 0], p[:, 1]) < GEOMETRY.r_safe_m)
     assert inside.any()
     assert GEOMETRY.bearing_rad(p[inside]).max() < 0.6 * GEOMETRY.switch_angle_rad
+
+
+def test_face_heading_error_by_hand():
+    # Facing the face: the chaser's +x along -n, theta_c = theta_t + pi (any 2 pi multiple).
+    assert float(pa.face_heading_error(1.0 + math.pi, 1.0)) == pytest.approx(0.0, abs=1e-15)
+    assert float(pa.face_heading_error(1.0 - math.pi + 0.1, 1.0)) == pytest.approx(0.1)
+    assert float(pa.face_heading_error(0.0, 0.0)) == pytest.approx(-math.pi)
+
+
+def test_state_ii_needs_the_heading_on_the_face():
+    p_T = np.array([0.40, 0.0])  # in the switching region, inside r_safe
+    tolerance = GEOMETRY.alignment_tolerance_rad
+    assert tolerance == pytest.approx(math.radians(3.0))
+    assert int(GEOMETRY.state(p_T, 0.0)) == pa.STATE_II
+    assert int(GEOMETRY.state(p_T, -0.99 * tolerance)) == pa.STATE_II
+    assert int(GEOMETRY.state(p_T, 1.01 * tolerance)) == pa.STATE_I
+    assert int(GEOMETRY.state(p_T, 2.0 * math.pi)) == pa.STATE_II  # wrapped
+    assert float(GEOMETRY.q(p_T, 0.0)) == pytest.approx(0.07, abs=1e-12)
+    assert float(GEOMETRY.q(p_T, 0.5)) == pytest.approx(0.40 - GEOMETRY.r_safe_m, abs=1e-12)
+
+
+def test_squares_gap_agrees_with_the_polytope_separation():
+    rng = np.random.default_rng(5)
+    p_T = rng.uniform(-0.6, 0.6, (300, 2))
+    phi = rng.uniform(-math.pi, math.pi, 300)
+    gap = pa.squares_gap(p_T, phi, 0.3, 0.3)
+    target = ConvexPolytope.box([0.3, 0.3, 0.3])
+    for k in range(len(p_T)):
+        c, s = math.cos(phi[k] + math.pi), math.sin(phi[k] + math.pi)
+        R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        distance = separation_distance(
+            target, np.eye(3), np.zeros(3), target, R, np.array([*p_T[k], 0.0])
+        )
+        # Separating axes: positive iff apart, and never more than the distance.
+        assert (gap[k] > 1e-9) == (distance > 1e-9)
+        assert gap[k] <= distance + 1e-9
+
+
+def test_a_chaser_within_the_tolerance_never_overlaps_the_target_in_state_ii():
+    # The allowed State II region (q >= 0, in the cone, within 1.5 r_safe), the heading up to
+    # the tolerance off the face: the squares keep > 5 mm apart (module docstring: 8.7 mm);
+    # at 3x the tolerance they would touch.
+    rng = np.random.default_rng(6)
+    r = rng.uniform(0.0, GEOMETRY.switch_distance_m, 400_000)
+    bearing = rng.uniform(-GEOMETRY.switch_angle_rad, GEOMETRY.switch_angle_rad, len(r))
+    p = np.column_stack([r * np.cos(bearing), r * np.sin(bearing)])
+    p = p[GEOMETRY.q_state(p, pa.STATE_II) >= 0]
+    tolerance = GEOMETRY.alignment_tolerance_rad
+    for phi in np.linspace(-tolerance, tolerance, 7):
+        assert pa.squares_gap(p, np.full(len(p), phi), 0.3, 0.3).min() > 0.005
+    assert pa.squares_gap(p, np.full(len(p), 3.0 * tolerance), 0.3, 0.3).min() < 0.0
 
 
 # -------------------------------------------------------------- the KOS, the other forms

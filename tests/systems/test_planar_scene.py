@@ -35,10 +35,12 @@ def _wxyz_z(angle):
 
 
 class _Approach(LeafSystem):
-    """The sensed bundle of a chaser at r = 1 - SPEED t on the target's docking normal."""
+    """The sensed bundle of a chaser at r = 1 - SPEED t on the target's docking normal, facing
+    the docking face (turned by heading_error_rad from it)."""
 
-    def __init__(self):
+    def __init__(self, heading_error_rad=0.0):
         super().__init__()
+        self._heading_error = heading_error_rad
         self.DeclareVectorOutputPort("sensed", SENSED_SIZE, self._calc)
 
     def _calc(self, context, output):
@@ -51,7 +53,7 @@ class _Approach(LeafSystem):
                 np.r_[p, 0.0, 0.0, 0.0],
                 _wxyz_z(0.0),
                 np.zeros(3),
-                np.r_[_wxyz_z(theta), 0.0, 0.0, OMEGA],
+                np.r_[_wxyz_z(theta + self._heading_error), 0.0, 0.0, OMEGA],
                 np.r_[_wxyz_z(theta + math.pi), 0.0, 0.0, OMEGA],
             )
         )
@@ -78,9 +80,9 @@ class _RecordingMeshcat:
         return lambda *args, **kwargs: None
 
 
-def _simulate(meshcat, duration_s=10.0, record=False):
+def _simulate(meshcat, duration_s=10.0, record=False, heading_error_rad=0.0):
     builder = DiagramBuilder()
-    source = builder.AddSystem(_Approach())
+    source = builder.AddSystem(_Approach(heading_error_rad))
     system = add_planar_scene(
         builder,
         meshcat,
@@ -161,6 +163,16 @@ def test_the_zone_follows_the_target_and_switches_with_the_chaser():
     for state, count in ((pa.STATE_I, 3), (pa.STATE_II, 4)):
         pieces = [p for p in recorder.meshes if p.startswith(system.state_path(state) + "/")]
         assert len(pieces) == count
+
+
+def test_a_chaser_turned_off_the_docking_face_stays_in_state_i():
+    """State II needs the heading on the face (rpod.models.planar_approach): the same path
+    flown 10 deg off it never shows the relaxed zone."""
+    recorder = _RecordingMeshcat()
+    system = _simulate(recorder, heading_error_rad=math.radians(10.0))
+    assert recorder.properties.get((system.state_path(pa.STATE_II), "visible"), {0.0: False}) == {
+        0.0: False
+    }
 
 
 def test_a_real_meshcat_holds_every_path():
