@@ -12,6 +12,7 @@ timeout or crash has none, and a simulation that failed stopped early. A boolean
 matplotlib's object API (Figure, no pyplot), so they are safe in any process.
 """
 
+import math
 import pathlib
 import re
 
@@ -182,6 +183,11 @@ def _histograms(rows, metrics, out_dir: pathlib.Path) -> list[pathlib.Path]:
     return paths
 
 
+_ANNOTATED_CELLS = 20
+"""Grid maps write each cell's value while both axes have at most this many points; larger
+grids are drawn in colour only, in a fixed size, with a tick every few points."""
+
+
 def _grid_maps(meta, rows, metrics, out_dir: pathlib.Path) -> list[pathlib.Path]:
     """For a 2-parameter grid: success rate and median of each metric per grid point."""
     from matplotlib.figure import Figure
@@ -214,10 +220,15 @@ def _grid_maps(meta, rows, metrics, out_dir: pathlib.Path) -> list[pathlib.Path]
                 image[j, i] = statistic(rs)
             if np.all(np.isnan(image)):
                 continue
-            figure = Figure(figsize=(1.6 + 1.3 * len(x_values), 1.4 + 0.8 * len(y_values)))
+            annotated = len(x_values) <= _ANNOTATED_CELLS and len(y_values) <= _ANNOTATED_CELLS
+            if annotated:  # one readable number per cell
+                size = (1.6 + 1.3 * len(x_values), 1.4 + 0.8 * len(y_values))
+            else:  # a large grid (paper 003's 79 x 34): colours only, a tick every few cells
+                size = (12.0, 7.0)
+            figure = Figure(figsize=size)
             axes = figure.add_subplot()
             mesh = axes.imshow(image, origin="lower", aspect="auto", cmap="viridis")
-            for (j, i), value in np.ndenumerate(image):
+            for (j, i), value in np.ndenumerate(image if annotated else np.empty((0, 0))):
                 if np.isfinite(value):
                     axes.text(
                         i,
@@ -228,8 +239,10 @@ def _grid_maps(meta, rows, metrics, out_dir: pathlib.Path) -> list[pathlib.Path]
                         fontsize=8,
                         color="white" if value < np.nanmean(image) else "black",
                     )
-            axes.set_xticks(range(len(x_values)), [str(v) for v in x_values], fontsize=8)
-            axes.set_yticks(range(len(y_values)), [str(v) for v in y_values], fontsize=8)
+            x_ticks = range(0, len(x_values), max(1, math.ceil(len(x_values) / _ANNOTATED_CELLS)))
+            y_ticks = range(0, len(y_values), max(1, math.ceil(len(y_values) / _ANNOTATED_CELLS)))
+            axes.set_xticks(x_ticks, [str(x_values[i]) for i in x_ticks], fontsize=8)
+            axes.set_yticks(y_ticks, [str(y_values[i]) for i in y_ticks], fontsize=8)
             axes.set_xlabel(x_path)
             axes.set_ylabel(y_path)
             label = "success rate" if name == "success_rate" else f"median {name}"
