@@ -44,6 +44,7 @@ _N_T = cr.STATE_SIZE - cr.PAPER_STATE_SIZE
 
 IPOPT_DEFAULTS = {
     "print_level": 0,
+    "sb": "yes",  # no banner: `rpod run` prints one line
     "tol": 1e-6,
     "max_iter": 300,
     "mu_strategy": "adaptive",
