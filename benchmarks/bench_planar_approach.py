@@ -59,11 +59,15 @@ RESULTS = pathlib.Path(__file__).resolve().parent / "results" / "planar_approach
 COMMAND = "python benchmarks/bench_planar_approach.py"
 SCHEMES = ("pwm_carry", "round", "schmitt", "delta_sigma")
 VARIANTS = (
-    ("Sec. V-A (bundled: log 0.01 s, face-aligned heading, 0.03 N, pwm_carry)", {}),
+    ("Sec. V-A (bundled: log 0.01 s, the plan's heading, 0.03 N, pwm_carry)", {}),
     ("log every 0.1 s", {"log_period_s": 0.1}),
     (
-        "the plan's own heading (paper's eq. 12 on the plan)",
-        {"controller.attitude_reference": "plan"},
+        "face-aligned heading (turned onto the face 20 s before reach)",
+        {"controller.attitude_reference": "face_aligned"},
+    ),
+    (
+        "the paper's eq. 5 (no terminal relative-velocity term)",
+        {"controller.planner.w_terminal_velocity": 0.0},
     ),
     ("F_thr = 0.3 N", {"thrusters.max_thrust_N": 0.3}),
     ("feed-forward of the planned wrench", {"controller.feedforward": True}),
@@ -74,66 +78,68 @@ FINDINGS = """\
 Written from the run above (the closed-loop numbers are deterministic; times vary with load).
 
 - **Sec. V-A, flown (the bundled scenario).** The plan: T = 86.4 s, the second of three
-  candidates (23.6, 86.4, 149.2 s), cost (5) 0.184 (kinetic 0.151, control 0.032, goal 0.0007),
-  accepted by the independent checker, 2.6 mm from x_goal. Flown on 0.03 N thrusters through
-  PWM (N = 10) with the face-aligned heading: RMS tracking error 0.35 cm (goal: under 2 cm,
-  met), 5 mm from x_goal at the arrival, relative speed in the target frame 0.0135 m/s at the
-  arrival (the plan's own 0.014 m/s; paper, Fig. 7: about 0.03 m/s) and 0.0012 m/s after the
-  10 s co-rotating hold (goal: under 0.01 m/s; met after synchronising, not at the arrival:
-  the planner has no terminal relative-velocity term, as the paper says), least separation
-  3.3 cm, delta-v 0.099 m/s to the arrival, 3,416 thruster switches. The planned wrench fed
-  forward (beyond the paper) brings the RMS error to 0.02 cm.
-- **The contact is in the plan.** Flown with the plan's own heading (the paper's law on the
-  plan), the same path touches the target from 77.4 s: the plan itself overlaps it from 77.2 s
-  to 83.8 s (the chaser's centre in State II's relaxed zone while its heading is still tens of
-  degrees off the face). In both case-study subsamples every contact during the approach is a
-  plan that overlaps the target; the face-aligned heading cannot turn in time when the plan is
-  short (omega 0.7-1.3 rad/s, T 7-12 s). The fix belongs in the planner: State II only with the
-  heading aligned.
-- **Speed.** 15-25x real time with the log at every PWM slot (0.01 s: exact switch counts)
-  and 75-95x at 0.1 s (the spread is the shared machine's load). The coasting reference is as
-  fast (ratio 0.9-1.1): the tracker and
-  the allocator take 1-3 % of the simulation; the rest is the truth, the PWM's 100 Hz events and
-  the loggers (the monitor's separation QP, ~150 us, at every sample). The plan takes ~5 s
-  (three candidates, SCP on Clarabel) at build, outside the factor.
-- **Modulation.** pwm_carry, round and delta_sigma track alike (0.35-0.37 cm RMS, delta-v
-  0.098-0.099 m/s). delta_sigma switches 1.8x as often (6,200 against 3,416); round a little
-  less (3,352) for a 5 % larger error (a duty below 1/(2 N) is dropped until the error grows).
-  schmitt fires whole periods: 24x fewer switches (142) for 4x the error (1.39 cm RMS, 1.9 cm
-  at the arrival) and 3 % less delta-v. All four reach the goal without contact.
-- **Case Study 1 (Fig. 8).** With the bundled campaign's three candidate durations the planned
-  final error grows with omega, averaged over F_thr: 1 mm at 0.035 rad/s, 3 cm at 0.335,
-  0.15-0.22 m at 0.6-1.0, about 0.5 m above 1.5, its spread over F_thr growing too: the three
-  shortest candidates (T <= theta_approach / omega + 4 pi / omega, under 10 s above 1.5 rad/s)
-  are too short for 0.03 N thrusters to cross the 0.64 m to the goal. The paper's peak near
-  0.75 rad/s and its plateau at about 0.09 m are not reproduced so. The candidate table above
-  shows why: with ten candidates the plan at 0.735 rad/s and 0.03 N takes a longer T and ends
-  about 0.09 m from the goal (the paper's plateau), against 0.33 m with three; at 1.2-1.9 rad/s
-  ten candidates (T up to ~30 s) still leave 0.18-0.31 m, and at 0.57 N and 0.3-0.7 rad/s the
-  shortest candidate stays the best. The paper does not say how many candidates it tries; its
-  plateau fits a list that reaches long enough durations, at many times the planning time. The
-  cost shares (the figure's bars) move as the paper describes, kinetic energy first (0.035-0.135
-  rad/s), then the control term, then the goal term (about half of J above 1.25 rad/s), but the
-  shift is spread over 0.3-1.25 rad/s rather than at 0.75. Flown: RMS tracking 0.5 cm at 0.035
-  rad/s to 10-15 cm above 1 rad/s (plans near the thrust limits, no feed-forward); 80 % of the
-  runs are planned and flown without contact.
-- **Case Study 2 (Fig. 9).** The planned final error is largest for theta_approach 150-240 deg
-  (0.60-0.65 m mean over omega, the maximum at 180 deg) and smallest at 0-30 and 330 deg
-  (0.18-0.22 m): the paper's finding (larger errors from 150 to 210 deg, the largest at 180
+  candidates (23.6, 86.4, 149.2 s), cost 0.262 (kinetic 0.185, control 0.067, goal 0.0025,
+  terminal relative velocity (5') 0.0074), accepted by the independent checker, 5 mm from
+  x_goal, arriving at 0.0027 m/s relative to the target frame; the true squares keep 5.1 cm
+  apart along it. Flown on 0.03 N thrusters through PWM (N = 10) with the plan's own heading
+  (the paper's law): RMS tracking error 0.41 cm (goal: under 2 cm, met), 11 mm from x_goal at
+  the arrival, relative speed 0.0039 m/s there (goal: under 0.01 m/s, met; the paper, Fig. 7:
+  about 0.03 m/s) and 0.0002 m/s after the 10 s co-rotating hold, least separation 5.9 cm,
+  delta-v 0.079 m/s to the arrival, 3,708 thruster switches. The planned wrench fed forward
+  (beyond the paper) brings the RMS error to 0.03 cm.
+- **Why the arrival is slow now: (5').** With the paper's eq. 5 (w_terminal_velocity = 0) the
+  same approach arrives at 0.0135 m/s (the plan's own 0.014 m/s): the paper has no terminal
+  relative-velocity term and says one "could further reduce the residual motion" (Sec. V-C).
+  rpod's term brings the plan's arrival to 0.0027 m/s; flown, it takes 22 % more delta-v to
+  the arrival (0.079 against 0.065 m/s): the chaser matches the face's motion.
+- **State II needs the heading on the face.** Before this condition the paper's position-only
+  switch let the plan into the relaxed zone while the chaser was still turned ~165 deg off the
+  face: Sec. V-A's plan overlapped the target from 77.2 s to 83.8 s, and 20 % of the Case Study
+  1 subsample touched in the plan itself (omega 0.7-1.3 rad/s). Now the plan's heading turns
+  onto the face before the final approach, the checker tests the true squares, and the plan's
+  heading and the face-aligned one (the earlier remedy) fly alike.
+- **Speed.** 12-19x real time with the log at every PWM slot (0.01 s: exact switch counts)
+  and ~60x at 0.1 s (the spread is the shared machine's load). The coasting reference is as
+  fast (ratio 0.65-1.12): the tracker and the allocator take 1-4 % of the simulation; the rest
+  is the truth, the PWM's 100 Hz events and the loggers (the monitor's separation QP, ~150 us,
+  at every sample). The plan takes ~5 s (three candidates, SCP on Clarabel) at build, outside
+  the factor; with (5') and the heading condition the SCP takes 6-10 iterations a candidate.
+- **Modulation.** pwm_carry, round and delta_sigma track alike (0.41-0.42 cm RMS, delta-v
+  0.078-0.079 m/s). delta_sigma switches 1.8x as often (6,735 against 3,708); round a little
+  less (3,666). schmitt fires whole periods: 20x fewer switches (189) for 4x the error (1.56 cm
+  RMS, 1.6 cm at the arrival) and 5 % less delta-v. All four reach the goal without contact,
+  at 0.0038-0.0039 m/s.
+- **Case Study 1 (Fig. 8).** 99 % of the subsample's runs are planned and flown without
+  contact (119/120; a 480-run subsample, every 2nd omega x every 3rd F_thr, gives 475/480: the
+  README). With the bundled campaign's three candidate durations the planned final error grows
+  with omega, averaged over F_thr: 1 mm at 0.035 rad/s, 5 cm at 0.335, 0.12-0.27 m at
+  0.5-1.0, 0.5-0.65 m above 1.5, its spread over F_thr growing too: the three shortest
+  candidates (T <= theta_approach / omega + 4 pi / omega, under 10 s above 1.5 rad/s) are too
+  short for 0.03 N thrusters to cross the 0.64 m to the goal. The paper's peak near 0.75 rad/s
+  and its plateau at about 0.09 m are not reproduced so. The candidate table above shows why:
+  with ten candidates the plan at 0.735 rad/s and 0.03 N takes T = 63 s and ends 0.11 m from
+  the goal (near the paper's plateau), against 0.83 m with three; at 1.2-1.9 rad/s and 0.03 N
+  ten candidates still leave 0.75-0.9 m, at 0.57 N 0.05-0.1 m. The paper does not say how many
+  candidates it tries; its plateau fits a list that reaches long enough durations, at many
+  times the planning time. Flown: RMS tracking 0.5 cm at 0.035 rad/s to 10-15 cm above 1 rad/s
+  (plans near the thrust limits, no feed-forward).
+- **Case Study 2 (Fig. 9).** The planned final error is largest for theta_approach 150-210 deg
+  (0.72-0.73 m mean over omega, the maximum at 180 deg) and smallest at 0-30 and 330 deg
+  (0.29-0.31 m): the paper's finding (larger errors from 150 to 210 deg, the largest at 180
   deg, the approach from the rear) holds. The start is on +x, so theta_approach = 180 deg puts
   the goal on the far side and the plan must go round the target in the same short durations.
-  The values are larger than the paper's for the reason of Case Study 1. 98 % of the runs are
+  The values are larger than the paper's for the reason of Case Study 1. 100 % of the runs are
   planned and flown without contact.
-- **Missions in the campaigns.** Few runs reach the goal within 5 cm and 0.03 m/s (about one
-  in ten): most plans end farther (the goal term of eq. 5 is soft). Many runs touch the target
-  after the arrival: the co-rotating hold needs up to several times the centripetal force the
-  thrusters give at these spins (`planar_hold_force_ratio`); that is reported apart
-  (`planar_contact_after_arrival_s`) and is not a contact of the approach.
-- **Time per run.** See the campaign lines: a Case Study 1 run costs 1-3 s on average (plan and
+- **Missions in the campaigns.** Few runs reach the goal within 5 cm and 0.03 m/s (one in five
+  in Case Study 2, none from 0.335 rad/s on in Case Study 1): most plans end farther (the goal term
+  of eq. 5 is soft). A contact in the co-rotating hold after the arrival (the hold needs up to
+  several times the centripetal force the thrusters give at these spins,
+  `planar_hold_force_ratio`) is reported apart (`planar_contact_after_arrival_s`) and is not a
+  contact of the approach.
+- **Time per run.** See the campaign lines: a Case Study 1 run costs ~2 s on average (plan and
   simulation, log at 0.1 s) with two workers on this shared machine, most at the low spins
-  (long candidate durations: up to ~25 s a run at 0.085 rad/s under load); the full 2,686-run
-  grid projects to half an hour to an hour on two workers depending on the load, Case Study 2's
-  480 runs to 5-10 min.
+  (long candidate durations: up to ~15 s a run); the full 2,686-run grid projects to ~50-100
+  min on two workers depending on the load, Case Study 2's 480 runs to ~8-15 min.
 """
 
 
