@@ -219,31 +219,22 @@ class CasadiTranscription:
     sparse one (the terminal node's 15 entries without cost) silently shifted it.
 
     Args:
-        params, weights: The model's data and eq. 20-21's weights.
-        intervals: N.
-        interval_s: T_s = T / N [s].
-        substeps: RK4 steps per interval.
-        A_p: The LOS polyhedron's rows (eq. 18).
-        los_slack_weight: rho of the L1 penalty on the LOS slacks.
-        max_relative_rate_rad_s: The box on w_TC_T at nodes 1..N (coupled_nmpc's docstring).
+        problem: The NLP's data (rpod.planners.coupled_shooting.ShootingProblem).
         ipopt_options: IPOPT options (names as IPOPT's), on top of `IPOPT_DEFAULTS`.
         compile: Compile the interval derivatives to C (`compile_functions`).
     """
 
     def __init__(
         self,
-        params: cr.CoupledRelativeParams,
-        weights: cr.CoupledNmpcWeights,
-        intervals: int,
-        interval_s: float,
-        substeps: int,
-        A_p: np.ndarray,
-        los_slack_weight: float,
-        max_relative_rate_rad_s: float,
+        problem: cs.ShootingProblem,
         ipopt_options: dict | None = None,
         compile: bool = False,
     ):
-        self.N = N = int(intervals)
+        params, weights, A_p = problem.params, problem.weights, problem.A_p
+        interval_s, substeps = problem.interval_s, problem.substeps
+        los_slack_weight = problem.los_slack_weight
+        max_relative_rate_rad_s = problem.max_relative_rate_rad_s
+        self.N = N = int(problem.intervals)
         m, n_p = cr.INPUT_SIZE, A_p.shape[0]
         Phi_w = interval_function(params, weights, interval_s, substeps)
         jac, grad, hess = interval_derivatives(Phi_w)

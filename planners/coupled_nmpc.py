@@ -323,33 +323,25 @@ class CoupledNmpc:
         self._multipliers = None  # casadi_ipopt: the last solve's (lam_x, lam_g)
         self.derivatives_message = ""
         """casadi_ipopt: how the derivatives are evaluated (compiled library or CasADi's VM)."""
+        problem = cs.ShootingProblem(
+            self.params,
+            self.weights,
+            self.N,
+            self.interval_s,
+            s.rk4_substeps,
+            self.A_p,
+            s.los_slack_weight,
+            s.max_relative_rate_rad_s,
+        )
         if s.solver == "casadi_ipopt":
             self.prog, self._sqp = None, None
-            self._casadi = CasadiTranscription(
-                self.params,
-                self.weights,
-                self.N,
-                self.interval_s,
-                s.rk4_substeps,
-                self.A_p,
-                s.los_slack_weight,
-                s.max_relative_rate_rad_s,
-                {"max_iter": int(s.max_iterations), "tol": float(s.tolerance)},
-                compile=s.compile_derivatives,
-            )
+            ipopt_options = {"max_iter": int(s.max_iterations), "tol": float(s.tolerance)}
+            self._casadi = CasadiTranscription(problem, ipopt_options, s.compile_derivatives)
             self.derivatives_message = self._casadi.derivatives_message
         elif s.solver in ("sqp", "rti"):
             self.prog = None
             self._sqp: CoupledSqp | None = CoupledSqp(
-                self.params,
-                self.weights,
-                self.N,
-                self.interval_s,
-                s.rk4_substeps,
-                self.A_p,
-                s.los_slack_weight,
-                s.max_relative_rate_rad_s,
-                dataclasses.replace(s.sqp, max_iterations=int(s.max_iterations)),
+                problem, dataclasses.replace(s.sqp, max_iterations=int(s.max_iterations))
             )
         else:
             self._sqp = None

@@ -40,6 +40,30 @@ _STEP = 1e-30
 _RK4_WEIGHTS = np.array([1.0, 2.0, 2.0, 1.0]) / 6.0
 
 
+@dataclasses.dataclass(frozen=True)
+class ShootingProblem:
+    """The data of the NLP (22) that every solver's transcription shares.
+
+    Attributes:
+        params, weights: The model's data and eqs. 20-21's weights.
+        intervals: N.
+        interval_s: T_s = T / N [s].
+        substeps: RK4 steps per interval.
+        A_p: The LOS polyhedron's rows (eq. 18).
+        los_slack_weight: rho of the L1 penalty on the LOS slacks.
+        max_relative_rate_rad_s: The box on w_TC_T at the nodes 1..N.
+    """
+
+    params: cr.CoupledRelativeParams
+    weights: cr.CoupledNmpcWeights
+    intervals: int
+    interval_s: float
+    substeps: int
+    A_p: np.ndarray
+    los_slack_weight: float
+    max_relative_rate_rad_s: float
+
+
 @dataclasses.dataclass
 class Shooting:
     """The RK4 transcription over the N intervals from given nodes and inputs.

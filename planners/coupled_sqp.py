@@ -134,23 +134,14 @@ class SqpOutcome:
 class CoupledSqp:
     """Gauss-Newton SQP / RTI on the RK4 multiple-shooting transcription (module docstring)."""
 
-    def __init__(
-        self,
-        params: cr.CoupledRelativeParams,
-        weights: cr.CoupledNmpcWeights,
-        intervals: int,
-        interval_s: float,
-        substeps: int,
-        A_p: np.ndarray,
-        los_slack_weight: float,
-        max_relative_rate_rad_s: float,
-        settings: SqpSettings | None = None,
-    ):
+    def __init__(self, problem: cs.ShootingProblem, settings: SqpSettings | None = None):
+        params, weights = problem.params, problem.weights
         self.params, self.weights = params, weights
-        self.N, self.h, self.substeps = int(intervals), float(interval_s), int(substeps)
-        self.A_p = np.asarray(A_p, dtype=float)
-        self.rho = float(los_slack_weight)
-        self.w_max = float(max_relative_rate_rad_s)
+        self.N, self.h = int(problem.intervals), float(problem.interval_s)
+        self.substeps = int(problem.substeps)
+        self.A_p = np.asarray(problem.A_p, dtype=float)
+        self.rho = float(problem.los_slack_weight)
+        self.w_max = float(problem.max_relative_rate_rad_s)
         self.settings = settings if settings is not None else SqpSettings()
         layout = params.layout
         self.f_max = layout.max_thrusts_N

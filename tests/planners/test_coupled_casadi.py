@@ -52,7 +52,7 @@ def test_interval_graph_equals_the_float_rk4_interval(model):
 @pytest.fixture(scope="module")
 def transcription(model):
     params, weights = model
-    return cc.CasadiTranscription(
+    problem = cs.ShootingProblem(
         params,
         weights,
         8,
@@ -61,8 +61,8 @@ def transcription(model):
         cr.los_polyhedron(params.p_TPt_T),
         cr.LOS_SLACK_WEIGHT,
         0.02,
-        compile=False,
     )
+    return cc.CasadiTranscription(problem, compile=False)
 
 
 def test_assembled_derivatives_equal_casadis_own_of_the_whole_graph(model, transcription):
