@@ -166,7 +166,7 @@ class CoupledNmpcSettings:
             paper; module docstring, "Trust of the integrator").
         sqp: The SQP's own settings (its max_iterations is replaced by `max_iterations`).
         compile_derivatives: "casadi_ipopt" only: compile the intervals' derivatives to C
-            (rpod.planners.coupled_casadi.compile_functions; ~40 s once, then cached on disk).
+            (rpod.planners.coupled_casadi.compile_functions; ~40-80 s once, then cached on disk).
             Off, or without a C compiler, CasADi's virtual machine evaluates them, ~5x slower.
     """
 
@@ -616,7 +616,13 @@ class CoupledNmpc:
         )
         out = tr.solve(x0[:NLP_STATE_SIZE], self._target_nodes, guess, multipliers)
         status = _IPOPT_STATUS.get(out["status"], NmpcStatus.FAILED)
-        self._multipliers = (out["lam_x"], out["lam_g"]) if out["lam_x"] is not None else None
+        # Only a usable answer's multipliers seed the next solve (a failed one's may be NaN);
+        # without them the next solve starts IPOPT cold from the shifted primal guess.
+        usable = status in USABLE_STATUSES and out["lam_x"] is not None
+        usable = usable and bool(
+            np.all(np.isfinite(out["lam_x"])) and np.all(np.isfinite(out["lam_g"]))
+        )
+        self._multipliers = (out["lam_x"], out["lam_g"]) if usable else None
         x_nlp, u, slack = tr.unpack(out["w"])
         x = np.hstack([x_nlp, self._target_nodes])
         return NmpcResult(

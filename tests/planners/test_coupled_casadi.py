@@ -152,6 +152,7 @@ def test_iteration_limit_and_bad_numbers_come_back_as_statuses(model):
     result = nmpc.solve(x0)
     assert result.status is cn.NmpcStatus.MAX_ITERATIONS
     assert not result.usable and result.solver_message == "Maximum_Iterations_Exceeded"
+    assert nmpc._multipliers is None  # a failed solve's multipliers never seed the next one
 
     guess = nmpc.shifted_warm_start(result)
     guess.x[3, cr.P_PTPC_T_SLICE] = np.nan  # a poisoned guess: IPOPT refuses it
