@@ -91,17 +91,17 @@ Methods (`solver`):
 - "ipopt" (the paper's solver) and "snopt": the joint NLP (attitude and translation together)
   through Drake, the KOS as smooth terms (`keepout_smooth_terms`, at least 1e-3: ~0.2 mm), (8)
   as expressions of theta and F, re-solved once if the labels changed. Started from the SCP
-  answer (`nlp_warm_start="scp"`, default) they confirm it in seconds; from the spiral guess
-  ("guess") they reach the same optimum but slowly, because Drake gives IPOPT no second
-  derivatives (limited-memory quasi-Newton) and SNOPT builds its own quasi-Newton Hessian:
-  measured (before (5') and the heading condition of State II) on 2 shared cores at the
-  shortest Sec. V-A candidate (N = 236), IPOPT from the guess
-  took 315-330 s and SNOPT 57 s, to J = 1.80027, against 0.4 s for "scp" (J = 1.80076: its
-  polygons are up to 0.25 mm larger than the shapes) and 2-7 s for either NLP from the SCP
-  answer; at N = 864 and 1493 the polish alone takes 1-10 min
-  (benchmarks/results/planar_nlp.md). With (5')'s term Drake's IPOPT stopped in "Error in step
-  computation" from the SCP answer at N = 24 (w_terminal_velocity 100 and 1000; a
-  SOLVER_FAILED status), where SNOPT confirms it; with w_terminal_velocity = 0 IPOPT does.
+  answer (`nlp_warm_start="scp"`, default) they confirm it; from the spiral guess ("guess")
+  they are slow (Drake gives IPOPT no second derivatives, limited-memory quasi-Newton, and
+  SNOPT builds its own quasi-Newton Hessian) and keep the guess's labels. Measured on 2 shared cores at the shortest Sec. V-A candidate (N = 236): "scp" 0.4 s to
+  J = 1.983; IPOPT and SNOPT from its answer 34 s and 4 s to J = 1.980 (the SCP's polygons are
+  up to 0.25 mm larger than the shapes); from the guess, 47 s and 42 s, both to a worse local
+  optimum, J = 2.873 (their State II labels, and so the heading bounds, are the guess's)
+  (benchmarks/results/planar_nlp.md; before (5') and the heading condition IPOPT took 315-330 s
+  from the guess). At N = 864 and 1493 the polish alone takes 1-10 min. With (5')'s term
+  Drake's IPOPT stopped in "Error in step computation" from the SCP answer at N = 24
+  (w_terminal_velocity 100 and 1000; a SOLVER_FAILED status), where SNOPT confirms it; with
+  w_terminal_velocity = 0 IPOPT does.
 
 Duration search (Sec. III-A): the candidates are the times at which the target attitude equals
 theta_approach, T_m = ((theta_approach - theta_t0) sgn(omega) mod 2 pi + 2 pi m) / |omega|, within
