@@ -64,6 +64,16 @@ _PAPER_RELATIVE_SPEED_M_S = 0.03  # Sec. V-C: "converges to approximately 0.03 m
 _STATE_COLOURS = {pa.STATE_I: "tab:red", pa.STATE_II: "tab:green"}
 
 
+def _plane_axes(ax, title: str) -> None:
+    """The plane in L at equal scale, labelled, gridded, with its legend and title."""
+    ax.set_aspect("equal")
+    ax.set_xlabel("x_L [m]")
+    ax.set_ylabel("y_L [m]")
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="best", fontsize=8)
+    ax.set_title(title, fontsize=10)
+
+
 def square_corners(centre, yaw: float, side: float) -> np.ndarray:
     """The closed outline (5, 2) of a square of `side` centred at `centre`, turned by `yaw`."""
     h = 0.5 * side
@@ -149,12 +159,7 @@ def figure_planar_path(log: _Log, title: str) -> Figure | None:
     sm = colormaps["viridis"].resampled(_INSTANTS)
     mappable = ScalarMappable(norm=Normalize(instants[0], instants[-1]), cmap=sm)
     fig.colorbar(mappable, ax=ax, label="t [s] of the squares (bold side: docking face)")
-    ax.set_aspect("equal")
-    ax.set_xlabel("x_L [m]")
-    ax.set_ylabel("y_L [m]")
-    ax.grid(True, alpha=0.3)
-    ax.legend(loc="best", fontsize=8)
-    ax.set_title(_title(title, "path and poses (Fig. 4)"), fontsize=10)
+    _plane_axes(ax, _title(title, "path and poses (Fig. 4)"))
     return fig
 
 
@@ -224,12 +229,7 @@ def figure_planar_tracking(log: _Log, title: str) -> Figure | None:
     if _has_finite(plan):
         ax.plot(plan[:, 0], plan[:, 1], ":", color="k", lw=1.5, label="planned (ideal)")
     ax.plot(0.0, 0.0, "+", color="k", ms=10)
-    ax.set_aspect("equal")
-    ax.set_xlabel("x_L [m]")
-    ax.set_ylabel("y_L [m]")
-    ax.grid(True, alpha=0.3)
-    ax.legend(loc="best", fontsize=8)
-    ax.set_title(_title(title, "planned vs flown (Fig. 6)"), fontsize=10)
+    _plane_axes(ax, _title(title, "planned vs flown (Fig. 6)"))
     error, attitude = log.get("planar_position_error_m"), log.get("planar_attitude_error_rad")
     ax = fig.add_subplot(grid[0, 1])
     if _has_finite(error):
