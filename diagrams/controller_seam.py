@@ -18,6 +18,8 @@ or `controller: null` to coast). Each plug-in says, in one module:
   outputs to log;
 - `results(...)`: its entries in summary.json and log.npz, and the mission outcome;
 - `add_scene_extras(...)`: anything it draws in the Meshcat scene;
+- `load_warnings(config, scenario)`: what is legal but will likely fail (a hold point the
+  thrusters cannot hold), said at load by `rpod run` and kept in summary.json's `warnings`;
 - optionally `make_plan(...)`, for `rpod plan`, and `campaign_table(rows)`, for `rpod report`.
 """
 
@@ -158,6 +160,12 @@ class ControllerPlugin:
         except ValueError as error:
             field, _, message = str(error).partition(": ")
             raise ScenarioError(f"controller.{field}", message) from None
+
+    def load_warnings(self, config, scenario) -> list[str]:
+        """Warnings about a valid config that will likely fail its mission (one line each,
+        naming the field), e.g. a hold point beyond what the thrusters can hold. `rpod run`
+        prints them at load as `rpod: warning: ...`; summary.json keeps them. None by default."""
+        return []
 
     def add_to_diagram(self, builder, scenario, sensed) -> ControllerWiring:
         """Adds the controller's systems; `sensed` is the sensed bundle's output port."""

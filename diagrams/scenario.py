@@ -462,6 +462,13 @@ def _validate_actuation(plugin, scenario: Scenario) -> None:
     )
 
 
+def scenario_warnings(scenario: Scenario) -> list[str]:
+    """Warnings about a valid scenario that will likely fail (the controller's
+    `load_warnings`), one line each; [] when there is nothing to say."""
+    plugin = controller_seam.plugin_for(scenario.controller)
+    return list(plugin.load_warnings(scenario.controller, scenario)) if plugin else []
+
+
 def validate_scenario(scenario: Scenario) -> None:
     """Raises ScenarioError naming the first invalid field of the scenario."""
     orbit = scenario.orbit

@@ -17,7 +17,7 @@ from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorS
 from rpod.diagrams import controller_seam
 from rpod.diagrams.builder import DiagramHandles, build_diagram
 from rpod.diagrams.metrics import run_summary
-from rpod.diagrams.scenario import Scenario
+from rpod.diagrams.scenario import Scenario, scenario_warnings
 
 
 @dataclasses.dataclass
@@ -128,7 +128,7 @@ def simulate(scenario: Scenario, meshcat=None) -> SimulationResult:
     # Wall time from here: Initialize runs initialization events (a planning controller's
     # first plan), which belong to the simulation's cost, not the build's.
     built = time.perf_counter()
-    status, warnings, stopped = "ok", [], None
+    status, warnings, stopped = "ok", scenario_warnings(scenario), None
     try:
         simulator.Initialize()
         end_s = _end_time_s(scenario, handles, simulator.get_context(), warnings)

@@ -207,12 +207,18 @@ def _cmd_run(args) -> int:
     out_dir = pathlib.Path(args.out) if args.out else pathlib.Path("runs") / name
     from rpod.scenarios.run import run_to_folder, sigterm_as_interrupt  # heavy: only to run
 
+    from rpod.diagrams.scenario import scenario_warnings
+
+    said = scenario_warnings(scenario)
+    for warning in said:  # at load, before a long run: what is legal but will likely fail
+        print(f"rpod: warning: {warning}", file=sys.stderr)
     with sigterm_as_interrupt():  # SIGTERM cleans up as Ctrl-C does (exit 143)
         summary = run_to_folder(
             name, scenario, out_dir, record=not args.no_record, overwrite=args.overwrite
         )
     for warning in summary.get("warnings", []):
-        print(f"rpod: warning: {warning}", file=sys.stderr)
+        if warning not in said:  # the run's own (a plan that outlasts it), said at the end
+            print(f"rpod: warning: {warning}", file=sys.stderr)
     print(run_line(name, summary, out_dir))
     return run_exit_status(summary)
 

@@ -242,3 +242,31 @@ def test_campaign_figures_default_to_none(tmp_path):
     plugin = ControllerPlugin()
     assert plugin.campaign_figures([], tmp_path) == []
     assert list(tmp_path.iterdir()) == []
+
+
+@dataclasses.dataclass
+class WarnedAcceleration(ConstantAcceleration):
+    """ConstantAcceleration that warns at load above a 'safe' acceleration."""
+
+    safe_m_s2: float = 0.005
+
+
+class WarnedAccelerationPlugin(ConstantAccelerationPlugin):
+    config_type = WarnedAcceleration
+
+    def load_warnings(self, config, scenario):
+        if float(np.max(np.abs(config.a_L))) > config.safe_m_s2:
+            return [f"controller.a_L: above the safe {config.safe_m_s2} m/s^2"]
+        return []
+
+
+def test_load_warnings_are_said_at_load_once_and_kept_in_the_summary(tmp_path, capsys):
+    register_controller(WarnedAccelerationPlugin())
+    code, summary, _ = _run(tmp_path, "!WarnedAcceleration {a_L: [0.0, 0.01, 0.0]}")
+    assert code == 0
+    assert summary["warnings"] == ["controller.a_L: above the safe 0.005 m/s^2"]
+    err = capsys.readouterr().err
+    assert err.count("rpod: warning: controller.a_L: above the safe 0.005 m/s^2") == 1
+    (tmp_path / "quiet").mkdir()
+    _, summary, _ = _run(tmp_path / "quiet", "!WarnedAcceleration {a_L: [0.0, 0.001, 0.0]}")
+    assert summary["warnings"] == []
