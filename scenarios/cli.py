@@ -205,9 +205,8 @@ def _cmd_report(args) -> int:
 def _cmd_run(args) -> int:
     name, scenario = _load_with_sets(args.scenario, args.set)
     out_dir = pathlib.Path(args.out) if args.out else pathlib.Path("runs") / name
-    from rpod.scenarios.run import run_to_folder, sigterm_as_interrupt  # heavy: only to run
-
     from rpod.diagrams.scenario import scenario_warnings
+    from rpod.scenarios.run import run_to_folder, sigterm_as_interrupt  # heavy: only to run
 
     said = scenario_warnings(scenario)
     for warning in said:  # at load, before a long run: what is legal but will likely fail
