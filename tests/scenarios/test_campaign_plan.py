@@ -289,6 +289,7 @@ def test_passively_safe_states_satisfy_paper_000_eqs_6_7(tmp_path):
 
 # ------------------------------------------------------------------------------ bad input
 
+
 def sampled(spec: str, field: str = "chaser.mass_kg", count: int = 2) -> str:
     """A campaign sampling one field of coast with the distribution `spec` (YAML flow text)."""
     return f"base: coast\nsample: {{count: {count}, fields: {{{field}: {spec}}}}}\n"

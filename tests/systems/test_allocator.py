@@ -202,8 +202,13 @@ def test_ties_follow_the_documented_rule_and_not_the_call_history():
             np.ones(n), A_eq=B[[2, 3, 4]], b_eq=y[[2, 3, 4]], bounds=(0, 1), method="highs"
         ).fun
         best = scipy.optimize.linprog(
-            c2, A_ub=np.ones((1, n)), b_ub=[fuel + 1e-12], A_eq=B[[2, 3, 4]], b_eq=y[[2, 3, 4]],
-            bounds=(0, 1), method="highs",
+            c2,
+            A_ub=np.ones((1, n)),
+            b_ub=[fuel + 1e-12],
+            A_eq=B[[2, 3, 4]],
+            b_eq=y[[2, 3, 4]],
+            bounds=(0, 1),
+            method="highs",
         )
         assert best.status == 0
         assert u.sum() <= fuel + 1e-9

@@ -33,9 +33,14 @@ def _evaluate(bank, command):
     )
 
 
-@pytest.mark.parametrize("layout_fn, n, command_size", [
-    (rcs_cube_12, 12, 12), (planar_8, 8, 8), (gimbaled_cuboid_8, 8, 24),
-])
+@pytest.mark.parametrize(
+    "layout_fn, n, command_size",
+    [
+        (rcs_cube_12, 12, 12),
+        (planar_8, 8, 8),
+        (gimbaled_cuboid_8, 8, 24),
+    ],
+)
 def test_ports_and_structure(layout_fn, n, command_size):
     bank = ThrusterBank(layout_fn())
     assert bank.num_input_ports() == 1 and bank.num_output_ports() == 3
