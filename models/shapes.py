@@ -5,7 +5,18 @@ constructors (box, convex hull of points, intersection of halfspaces), the soft-
 paper 000 (``soft_capture_target_hull``, ``soft_capture_chaser_hull``), and
 ``separation_distance`` used by the safety monitor. Does not own: meshes for visualisation, the
 differentiable collision metric of the planners (paper 000 Sec. II-B, DCOL's inflation factor,
-in ``rpod.models.collision``), or penetration depth.
+in ``rpod.models.collision``).
+
+``ContactTest`` is the cheap contact check of the safety monitor, run at every integrator step:
+the separating-axis test of two posed polytopes. Two convex polytopes are disjoint iff some
+axis among the face normals of either and the cross products of an edge direction of each
+separates their projections (Gottschalk, Lin and Manocha, OBBTree, SIGGRAPH 1996; the general
+polytope form in Ericson, Real-Time Collision Detection, 2005, Sec. 5.2.1). The least overlap
+of the projections over those axes is, when they intersect, the penetration depth: the
+shortest translation that separates them (the Minkowski difference of two polytopes has only
+face-vertex and edge-edge faces, whose normals are exactly these axes). When they are apart,
+minus the largest gap over the axes is a lower bound on the distance (its sign is exact).
+Numpy on small arrays: ~20-40 us for two boxes (15 axes), no solver.
 
 ``separation_distance`` solves the minimum-distance problem over convex combinations of the
 posed vertices, written as a small second-order cone program,
@@ -130,6 +141,86 @@ class ConvexPolytope:
         intersection = HalfspaceIntersection(np.column_stack([A, -b]), lp.x[:3])
         points = intersection.intersections
         return cls(A=A, b=b, vertices=points[ConvexHull(points).vertices])
+
+
+def edge_directions(polytope: ConvexPolytope, tolerance: float = 1e-9) -> np.ndarray:
+    """The unit directions (E, 3) of a polytope's edges, one per parallel class (sign-free).
+
+    An edge joins two vertices that lie on two faces of different normals; its direction is
+    that of the faces' intersection line.
+    """
+    V, A, b = polytope.vertices, polytope.A, polytope.b
+    scale = max(1.0, float(np.max(np.abs(V))))
+    normals = A / np.linalg.norm(A, axis=1)[:, None]
+    on_face = np.abs(V @ A.T - b) <= tolerance * scale * np.linalg.norm(A, axis=1)  # (V, m)
+    directions = []
+    for i in range(len(V)):
+        for k in range(i + 1, len(V)):
+            shared = np.flatnonzero(on_face[i] & on_face[k])
+            if len(shared) < 2:
+                continue
+            n_shared = normals[shared]
+            if np.linalg.matrix_rank(n_shared, tol=1e-9) < 2:
+                continue  # the same plane twice (a redundant row), not an edge
+            d = V[k] - V[i]
+            d = d / np.linalg.norm(d)
+            if not any(abs(float(d @ e)) > 1.0 - 1e-9 for e in directions):
+                directions.append(d)
+    return np.array(directions).reshape(-1, 3)
+
+
+class ContactTest:
+    """Whether two posed polytopes touch, and how deep (the module docstring's SAT).
+
+    Built once per pair of shapes (the face normals and edge directions of each, in their own
+    frames); `depth` then costs a few small numpy products per call.
+    """
+
+    def __init__(self, shape_a: ConvexPolytope, shape_b: ConvexPolytope):
+        """Args: shape_a, shape_b: the two polytopes, each in its own frame."""
+        self._Va = shape_a.vertices
+        self._Vb = shape_b.vertices
+        self._Na = _unique_unit_rows(shape_a.A)
+        self._Nb = _unique_unit_rows(shape_b.A)
+        self._Ea = edge_directions(shape_a)
+        self._Eb = edge_directions(shape_b)
+        # Bounding radii about each frame's origin: farther apart than their sum, no contact.
+        self.bounding_radius_sum_m = float(
+            np.max(np.linalg.norm(self._Va, axis=1)) + np.max(np.linalg.norm(self._Vb, axis=1))
+        )
+
+    def depth(self, R_Wa, p_Wa, R_Wb, p_Wb) -> float:
+        """The least overlap of the projections over the separating axes [m].
+
+        > 0: the shapes intersect, by this penetration depth; 0: they touch; < 0: they are
+        apart (minus a lower bound on their distance).
+        """
+        R_Wa, R_Wb = _rotation_matrix(R_Wa), _rotation_matrix(R_Wb)
+        p_Wa = np.asarray(p_Wa, dtype=float)
+        p_Wb = np.asarray(p_Wb, dtype=float)
+        if float(np.linalg.norm(p_Wa - p_Wb)) > self.bounding_radius_sum_m:
+            return -(float(np.linalg.norm(p_Wa - p_Wb)) - self.bounding_radius_sum_m)
+        Ea, Eb = self._Ea @ R_Wa.T, self._Eb @ R_Wb.T
+        crosses = np.cross(Ea[:, None, :], Eb[None, :, :]).reshape(-1, 3)
+        norms = np.linalg.norm(crosses, axis=1)
+        crosses = crosses[norms > 1e-9] / norms[norms > 1e-9, None]
+        axes = np.vstack([self._Na @ R_Wa.T, self._Nb @ R_Wb.T, crosses])
+        proj_a = axes @ (self._Va @ R_Wa.T + p_Wa).T  # (k, Va)
+        proj_b = axes @ (self._Vb @ R_Wb.T + p_Wb).T
+        overlap = np.minimum(
+            proj_a.max(axis=1) - proj_b.min(axis=1), proj_b.max(axis=1) - proj_a.min(axis=1)
+        )
+        return float(np.min(overlap))
+
+
+def _unique_unit_rows(A) -> np.ndarray:
+    """The rows of A normalised, opposite and repeated directions dropped (same axis)."""
+    rows = []
+    for a in np.asarray(A, dtype=float):
+        a = a / np.linalg.norm(a)
+        if not any(abs(float(a @ r)) > 1.0 - 1e-12 for r in rows):
+            rows.append(a)
+    return np.array(rows)
 
 
 def halfspaces_are_bounded(A) -> bool:

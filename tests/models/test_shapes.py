@@ -10,7 +10,9 @@ from scipy.optimize import lsq_linear
 from scipy.spatial import ConvexHull
 
 from rpod.models.shapes import (
+    ContactTest,
     ConvexPolytope,
+    edge_directions,
     halfspaces_are_bounded,
     separation_distance,
     soft_capture_chaser_hull,
@@ -271,3 +273,67 @@ def test_from_halfspaces_rejects_unbounded_empty_and_flat_sets():
         ConvexPolytope.from_halfspaces(box.A, [-1.0, 1.0, 1.0, -1.0, 1.0, 1.0])
     with pytest.raises(ValueError, match="no interior"):
         ConvexPolytope.from_halfspaces(box.A, [0.0, 1.0, 1.0, 0.0, 1.0, 1.0])
+
+
+# ---- ContactTest: the safety monitor's per-step separating-axis test ------------------------
+
+
+def _sampled_penetration(shape_a, R_a, p_a, shape_b, R_b, p_b, directions):
+    """The least overlap of the projections over many sampled unit directions: for convex
+    shapes the penetration depth is the minimum over all directions, so this is an upper
+    bound on it that tightens as the sampling gets denser (independent of the SAT axes)."""
+    Va = shape_a.vertices @ R_a.matrix().T + p_a
+    Vb = shape_b.vertices @ R_b.matrix().T + p_b
+    pa, pb = directions @ Va.T, directions @ Vb.T
+    overlap = np.minimum(pa.max(1) - pb.min(1), pb.max(1) - pa.min(1))
+    return float(np.min(overlap))
+
+
+def test_edge_directions_of_a_box_and_the_soft_capture_hulls():
+    assert len(edge_directions(ConvexPolytope.box([1.0, 2.0, 3.0]))) == 3
+    # Prisms: the polygon's edge directions plus the prism axis (opposite edges parallel).
+    assert len(edge_directions(soft_capture_chaser_hull())) == 4  # hexagon: 3 pairs + z
+    assert len(edge_directions(soft_capture_target_hull())) == 6  # pentagon: 5 + z
+
+
+def test_contact_depth_of_offset_boxes_is_the_overlap():
+    test = ContactTest(ConvexPolytope.box([1.0, 1.0, 1.0]), ConvexPolytope.box([1.0, 1.0, 1.0]))
+    assert test.depth(IDENTITY, ORIGIN, IDENTITY, [0.8, 0.1, 0.0]) == pytest.approx(0.2)
+    assert test.depth(IDENTITY, ORIGIN, IDENTITY, [1.0, 0.0, 0.0]) == pytest.approx(0.0)
+    assert test.depth(IDENTITY, ORIGIN, IDENTITY, [1.3, 0.0, 0.0]) == pytest.approx(-0.3)
+
+
+@pytest.mark.parametrize("pair", ["boxes", "soft_capture_hulls"])
+def test_contact_depth_agrees_with_separation_and_with_sampled_directions(pair):
+    rng = np.random.default_rng(11)
+    if pair == "boxes":
+        a, b = ConvexPolytope.box([1.0, 2.0, 3.0]), ConvexPolytope.box([0.6, 0.4, 1.5])
+        reach = (0.5, 3.5)
+    else:
+        a, b = soft_capture_target_hull(), soft_capture_chaser_hull()
+        reach = (2.0, 9.0)
+    test = ContactTest(a, b)
+    directions = rng.normal(size=(40000, 3))
+    directions /= np.linalg.norm(directions, axis=1)[:, None]
+    n_apart = n_overlapping = 0
+    for _ in range(30):
+        R_a, R_b = _random_rotation(rng), _random_rotation(rng)
+        p_a = rng.uniform(-1.0, 1.0, 3)
+        direction = rng.normal(size=3)
+        p_b = p_a + rng.uniform(*reach) * direction / np.linalg.norm(direction)
+        depth = test.depth(R_a, p_a, R_b, p_b)
+        distance = separation_distance(a, R_a, p_a, b, R_b, p_b)
+        if depth < 0.0:
+            n_apart += 1
+            # Apart: the SOCP distance is positive and at least the SAT gap.
+            assert distance > 0.0 and -depth <= distance + TOL
+        else:
+            n_overlapping += 1
+            assert distance == 0.0
+            # The SAT depth is the minimum over all directions: never above a sampled one, and
+            # within the sampling's resolution of the best of 40,000 directions (~1 % of the
+            # bodies' metre sizes).
+            sampled = _sampled_penetration(a, R_a, p_a, b, R_b, p_b, directions)
+            assert depth <= sampled + 1e-12
+            assert sampled - depth < 0.03
+    assert n_apart >= 5 and n_overlapping >= 5
