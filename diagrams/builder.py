@@ -71,6 +71,7 @@ class DiagramHandles:
     layout: ThrusterLayout | None
     scene: object | None
     wiring: controller_seam.ControllerWiring | None = None  # what the plug-in handed back
+    scene_driver: object | None = None  # publishes the scene from the Simulator's monitor
 
 
 def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHandles]:
@@ -237,6 +238,7 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
     log("chaser_attitude", sensed["chaser_attitude"])
     for name in (
         "separation_m",
+        "penetration_m",
         "corridor_violation_rad",
         "capture_speed_m_s",
         "capture_distance_m",
@@ -265,6 +267,13 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
         if wiring is not None:
             plugin.add_scene_extras(builder, meshcat, scenario, wiring, scene)
 
+    # Every scene system (the bodies, the overlays, a method's extras) is published by one
+    # driver from the Simulator's monitor: no drawing adds a step (rpod.systems.scene).
+    scene_driver = None
+    if meshcat is not None:
+        from rpod.systems.scene import SceneDriver
+
+        scene_driver = SceneDriver.for_systems(builder.GetSystems())
     diagram = builder.Build()
     diagram.set_name(scenario.description or "rpod")
     handles = DiagramHandles(
@@ -278,5 +287,6 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
         layout,
         scene,
         wiring,
+        scene_driver,
     )
     return diagram, handles

@@ -106,11 +106,20 @@ def save_recording_html(meshcat: Meshcat, path: str | os.PathLike) -> Path:
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as f:
             f.write(html)
+        # mkstemp makes the file 0600; a recording is an output like any other (0666 & ~umask).
+        os.chmod(temp_name, 0o666 & ~_umask())
         os.replace(temp_name, path)
     except BaseException:
         Path(temp_name).unlink(missing_ok=True)
         raise
     return path
+
+
+def _umask() -> int:
+    """The process's umask (os.umask can only be read by setting it)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
 
 
 def find_chromium() -> str | None:
@@ -129,6 +138,7 @@ def screenshot_html(
     window_size: tuple[int, int] = (800, 600),
     virtual_time_budget_ms: int = 5000,
     chromium: str | None = None,
+    script: str | None = None,
 ) -> bool:
     """Renders an HTML file in headless Chromium and saves a PNG screenshot.
 
@@ -142,6 +152,9 @@ def screenshot_html(
         window_size: (width, height) in pixels.
         virtual_time_budget_ms: page time Chromium lets pass before the shot [ms].
         chromium: executable; found on PATH when None.
+        script: JavaScript run in the page after it loads (the Meshcat viewer is `viewer`),
+            e.g. to pause the animation at a time or hide objects; the file itself is not
+            changed (a copy with the script is rendered).
 
     Returns:
         True if the PNG was written; False if Chromium is missing, fails or times out.
@@ -153,6 +166,12 @@ def screenshot_html(
     png_path = Path(png_path).resolve()
     png_path.unlink(missing_ok=True)
     with tempfile.TemporaryDirectory(prefix="rpod_chromium_") as user_data_dir:
+        if script is not None:
+            page = Path(user_data_dir) / "page.html"
+            html = html_path.read_text(encoding="utf-8")
+            at = html.rfind("</body>")
+            page.write_text(f"{html[:at]}<script>{script}</script>\n{html[at:]}", "utf-8")
+            html_path = page
         command = [
             chromium,
             *CHROMIUM_FLAGS,

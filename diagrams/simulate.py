@@ -13,11 +13,15 @@ import time
 
 import numpy as np
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorStatus
+from pydrake.systems.framework import EventStatus
 
 from rpod.diagrams import controller_seam
 from rpod.diagrams.builder import DiagramHandles, build_diagram
 from rpod.diagrams.metrics import run_summary
 from rpod.diagrams.scenario import Scenario, scenario_warnings
+from rpod.systems.safety_monitor import ContactWatch
+
+PROGRESS_PERIOD_S = 0.5  # wall time between two progress calls
 
 
 @dataclasses.dataclass
@@ -70,6 +74,7 @@ def _collect_log(diagram, context, handles: DiagramHandles, scenario: Scenario) 
     log["propellant_kg"] = scenario.chaser.mass_kg - log["chaser_mass_kg"]
     for key in (
         "separation_m",
+        "penetration_m",
         "corridor_violation_rad",
         "capture_speed_m_s",
         "capture_distance_m",
@@ -111,11 +116,82 @@ def _end_time_s(scenario: Scenario, handles: DiagramHandles, context, warnings: 
     return end_s
 
 
-def simulate(scenario: Scenario, meshcat=None) -> SimulationResult:
+class _StepMonitor:
+    """The Simulator's monitor: called after Initialize and after every integrator step.
+
+    It adds no event, so nothing it does changes a step: it checks contact of the true shapes
+    (ContactWatch), publishes the scene (SceneDriver, when drawing) and reports progress.
+    """
+
+    def __init__(self, contact, scene_driver, progress, end_s: float):
+        self.contact = contact
+        self._scene = scene_driver
+        self._progress = progress
+        self._end_s = end_s
+        self._next_progress_wall = time.perf_counter() + PROGRESS_PERIOD_S
+
+    def __call__(self, root_context) -> EventStatus:
+        self.contact.observe(root_context)
+        if self._scene is not None:
+            self._scene.observe(root_context)
+        if self._progress is not None and time.perf_counter() >= self._next_progress_wall:
+            self._progress(root_context.get_time(), self._end_s)
+            self._next_progress_wall = time.perf_counter() + PROGRESS_PERIOD_S
+        return EventStatus.Succeeded()
+
+
+def contact_text(contact: dict) -> str:
+    """The outcome line's words for a contact, e.g. 'CONTACT of the true shapes from
+    86.52 to 87.10 s (1 interval, 221 mm deep)'."""
+    first, last = contact["first_s"], contact["last_s"]
+    when = f"at {first:.2f} s" if last - first < 5e-3 else f"from {first:.2f} to {last:.2f} s"
+    count = contact["intervals"]
+    return (
+        f"CONTACT of the true shapes {when} ({count} interval{'s' if count != 1 else ''}, "
+        f"{1000.0 * contact['max_depth_m']:.0f} mm deep)"
+    )
+
+
+def mission_verdict(outcome, contact: dict, has_controller: bool) -> dict:
+    """summary.json's `mission`: the controller's verdict and the run's contact, joined.
+
+    Contact of the true shapes anywhere in the run fails the mission whatever the
+    controller's own criterion says (a safety event is never hidden by a success); the line
+    then leads with it. `controller_success` keeps the plug-in's own verdict.
+    """
+    if outcome is None:
+        text = (
+            "no mission criterion (the controller gives none)"
+            if has_controller
+            else "no controller: no mission to judge"
+        )
+        success = None
+    else:
+        text, success = outcome.text, bool(outcome.success)
+    if contact["occurred"]:
+        prefix = "NOT a success: " if success else ""
+        text = f"{prefix}{contact_text(contact)}; {text}"
+        success = False if success is not None else None
+    return {
+        "success": success,
+        "outcome": text,
+        "controller_success": None if outcome is None else bool(outcome.success),
+        "contact": contact["occurred"],
+    }
+
+
+def simulate(scenario: Scenario, meshcat=None, progress=None) -> SimulationResult:
     """Builds and simulates a scenario; returns its logs and summary.
 
     Integrator failures do not raise: the run stops there, and `summary['status']` says why
     ('ok' or 'failed: ...'); the logs hold what was simulated.
+
+    Args:
+        scenario: a validated scenario.
+        meshcat: draw and record the run there (None: no drawing). Drawing never changes the
+            physics: the scene is published from the Simulator's monitor (SceneDriver).
+        progress: called as progress(t_s, end_s) about every PROGRESS_PERIOD_S of wall time
+            while the run goes on (None: silent).
     """
     start = time.perf_counter()
     diagram, handles = build_diagram(scenario, meshcat)
@@ -129,21 +205,27 @@ def simulate(scenario: Scenario, meshcat=None) -> SimulationResult:
     # first plan), which belong to the simulation's cost, not the build's.
     built = time.perf_counter()
     status, warnings, stopped = "ok", scenario_warnings(scenario), None
+    watch = ContactWatch(handles.monitor, handles.orbital)
+    step_monitor = _StepMonitor(watch, handles.scene_driver, progress, scenario.duration_s)
+    simulator.set_monitor(step_monitor)
     try:
         simulator.Initialize()
         end_s = _end_time_s(scenario, handles, simulator.get_context(), warnings)
+        step_monitor._end_s = end_s
         returned = simulator.AdvanceTo(end_s)
         if returned.reason() == SimulatorStatus.ReturnReason.kReachedTerminationCondition:
             stopped = returned.message()  # a system ended the run on purpose: its words
     except RuntimeError as error:
         status = f"failed: {str(error).splitlines()[0]}"
     finished = time.perf_counter()
-    if meshcat is not None:
-        meshcat.StopRecording()
-        meshcat.PublishRecording()
     context = simulator.get_context()
     _sample_final_state(context, handles)
     log = _collect_log(diagram, context, handles, scenario)
+    if meshcat is not None:
+        handles.scene_driver.finish(context)
+        handles.scene.FrameCamera(log["p_LC_L"])
+        meshcat.StopRecording()
+        meshcat.PublishRecording()
     summary = {"status": status, **run_summary(log, scenario)}
     outcome = None
     if handles.wiring is not None:
@@ -155,15 +237,10 @@ def simulate(scenario: Scenario, meshcat=None) -> SimulationResult:
         outcome = results.outcome
     summary["warnings"] = warnings
     summary["stopped_early"] = stopped
-    # "Did the simulation run" (status) apart from "did the mission succeed" (mission).
-    summary["mission"] = {
-        "success": None if outcome is None else bool(outcome.success),
-        "outcome": outcome.text
-        if outcome is not None
-        else "no controller: no mission to judge"
-        if handles.wiring is None
-        else "no mission criterion (the controller gives none)",
-    }
+    # "Did the simulation run" (status) apart from "did the mission succeed" (mission), and
+    # contact of the true shapes, one event for every method, in both.
+    summary["contact"] = watch.summary(log)
+    summary["mission"] = mission_verdict(outcome, summary["contact"], handles.wiring is not None)
     integ = simulator.get_integrator()
     summary.update(
         wall_time_s=finished - built,

@@ -33,7 +33,8 @@ drawn are those of the input port; with `clip=True` the port may carry the comma
 the arrows show what the thruster bank applies: the commands mapped into the layout's limits by
 the bank's own rule (`GimbalLimits.clip`, eqs. 16-17), evaluated only at the publishes.
 
-Updates: at initialization and every `publish_period_s` of simulated time (pass the scene's,
+Updates: at initialization and every `publish_period_s` of simulated time (the diagram's
+SceneDriver calls `PublishScene`; pass the scene's period,
 so the arrows move with the bodies), every call carrying time_in_recording = t, so a recording
 started before `Simulator.Initialize` replays them (rpod.diagrams.recording). Scale goes on a node
 that never receives a transform (Meshcat's set_transform resets a node's scale). Per publish:
@@ -268,7 +269,9 @@ class ThrustArrows(LeafSystem):
             "geometry_pose", AbstractValue.Make(FramePoseVector())
         )
         self.DeclareInitializationPublishEvent(self._Initialize)
-        self.DeclarePeriodicPublishEvent(publish_period_s, 0.0, self._Publish)
+        # Published by the diagram's SceneDriver from the Simulator's monitor, never by an
+        # event of its own: a periodic event would add steps and change the physics.
+        self.scene_publish_period_s = publish_period_s
 
         # Bookkeeping, reset by _Initialize (as RendezvousScene's trail).
         self._shown = np.zeros(layout.count, dtype=bool)
@@ -306,9 +309,9 @@ class ThrustArrows(LeafSystem):
             meshcat.SetProperty(path, "visible", False, time_in_recording=t)
         self._shown[:] = False
         self._last_publish_time = -np.inf
-        self._Publish(context)
+        self.PublishScene(context)
 
-    def _Publish(self, context) -> None:
+    def PublishScene(self, context) -> None:
         """Moves the chaser node and redraws the arrows; idempotent at a repeated time."""
         t = context.get_time()
         if t <= self._last_publish_time:

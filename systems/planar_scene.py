@@ -20,7 +20,8 @@ Each piece is drawn as a prism of `height_m` (the target's height) centred on th
 plus its outline at z = 0. The curved sides are inscribed polygons (vertices on the exact
 curves, up to 1 - cos(pi / (2 points_per_half)) = 0.05 % inside at 48).
 
-Timing: at initialization and every `publish_period_s` of simulated time (pass the scene's),
+Timing: at initialization and every `publish_period_s` of simulated time (pass the scene's; the
+diagram's SceneDriver calls `PublishScene`, no event of its own changes a step),
 every call carrying time_in_recording = t: the node's transform X_LT, and the two states'
 visibility whenever the chaser's state changes (`KeepOutGeometry.state` of the chaser's centre
 in T and its heading from the docking face, the memoryless switching of the model). Drawn under "<prefix>/planar_kos", outside the scene's
@@ -143,7 +144,9 @@ class PlanarKeepOutScene(LeafSystem):
         self._root = f"{prefix}/planar_kos"
         self._sensed_port = declare_sensed_input(self)
         self.DeclareInitializationPublishEvent(self._Initialize)
-        self.DeclarePeriodicPublishEvent(publish_period_s, 0.0, self._Publish)
+        # Published by the diagram's SceneDriver from the Simulator's monitor, never by an
+        # event of its own: a periodic event would add steps and change the physics.
+        self.scene_publish_period_s = publish_period_s
         self._state = 0  # drawn state, reset by _Initialize
         self._last_publish_time = -np.inf
 
@@ -185,9 +188,9 @@ class PlanarKeepOutScene(LeafSystem):
                 meshcat.SetLine(f"{node}/outline_{k}", line, 2.0, OUTLINE_RGBA[state])
         self._state = 0
         self._last_publish_time = -np.inf
-        self._Publish(context)
+        self.PublishScene(context)
 
-    def _Publish(self, context) -> None:
+    def PublishScene(self, context) -> None:
         """Moves the target node; shows the chaser's state; idempotent at a repeated time."""
         t = context.get_time()
         if t <= self._last_publish_time:

@@ -20,7 +20,8 @@ Two drawing paths are used (the split is deliberate):
   `RegisterTargetGeometry` adds more shapes fixed in T the same way (paper 004's LOS corridor,
   rpod.systems.los_corridor_scene).
 - Overlays (option b), drawn directly with Meshcat under `/drake/<prefix>/overlay` from this
-  system's initialization and periodic publish events:
+  system's initialization event and its `PublishScene`, which the diagram's `SceneDriver`
+  calls from the Simulator's monitor (never a periodic event: see SceneDriver):
   * `lvlh_triad`: three cylinders at the origin, x red, y green, z blue (static).
   * `target_frame`: a node whose transform is X_LT (recorded at every publish). Under it, fixed in
     T: the docking port (small sphere), the docking axis (a thin cylinder along d_T; WebGL draws
@@ -45,7 +46,7 @@ Why the pool: a Meshcat recording animates only transforms and properties of obj
 in the final scene tree; it cannot replay object creation. Pre-allocated, toggled markers make
 the trail a true animation at a bounded scene size.
 
-Cost: everything happens in publish events at `publish_period_s` (default 0.5 s of simulated
+Cost: everything happens in publishes at `publish_period_s` (default 0.5 s of simulated
 time): one transform for the target node and at most four calls for the trail per publish; the
 pose output is only evaluated by the visualizer's publish. Nothing runs per integrator step.
 
@@ -57,6 +58,7 @@ simulation (context) at a time. For a recording, call `Meshcat.StartRecording` b
 
 # No `from __future__ import annotations` here: yaml_load_typed reads SceneConfig's field types
 # at run time and fails on string annotations such as 'list[float]'.
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -82,11 +84,16 @@ from pydrake.geometry import (
 )
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.perception import BaseField, Fields, PointCloud
-from pydrake.systems.framework import DiagramBuilder, LeafSystem, OutputPort
+from pydrake.systems.framework import DiagramBuilder, EventStatus, LeafSystem, OutputPort
 from scipy.spatial import ConvexHull
 
 from rpod.models.frames import rotation_from_wxyz
 from rpod.systems.sensed import SENSED_PORT, Sensed, declare_sensed_input
+
+CAMERA_FOV_DEG = 60.0  # vertical field of view of the recording's camera
+NOMINAL_VIEW_PIXELS = 600  # height of the browser view the locators are sized for
+LOCATOR_PIXELS = 10  # a body smaller than this on screen gets a locator this size
+LOCATOR_ALPHA = 0.35
 
 # Colours (r, g, b, a). Axis colours follow the usual x red, y green, z blue.
 TARGET_RGBA = Rgba(0.85, 0.65, 0.20, 1.0)
@@ -120,8 +127,12 @@ class SceneConfig:
     trail_marker_radius_m: float = 0.1
     # Length of the LVLH axes triad at the origin [m]; the body triads are scaled to the boxes.
     lvlh_axis_length_m: float = 3.0
-    # Meshcat camera position in L, looking at the origin [m]; empty leaves the camera alone.
-    camera_position_L_m: list[float] = field(default_factory=lambda: [10.0, -20.0, 9.0])
+    # Meshcat camera position in L [m], looking at the centre of what the run drew; empty (the
+    # default) frames the run: the camera looks at that centre from camera_direction_L, far
+    # enough to show the target and the chaser's whole path (RendezvousScene.FrameCamera).
+    camera_position_L_m: list[float] = field(default_factory=list)
+    # Direction from the content's centre to the camera, in L, when the camera frames the run.
+    camera_direction_L: list[float] = field(default_factory=lambda: [0.45, -0.75, 0.5])
     # Keep Meshcat's grey gradient background. It is drawn as a finite box, whose faces cut
     # through the view once the camera is some 30 m out; off gives a plain white background.
     meshcat_background: bool = False
@@ -137,6 +148,11 @@ class SceneConfig:
             np.isfinite(np.asarray(self.camera_position_L_m, dtype=float))
         ):
             raise ValueError("camera_position_L_m: must be empty or 3 finite numbers")
+        direction = np.asarray(self.camera_direction_L, dtype=float)
+        if direction.shape != (3,) or not np.all(np.isfinite(direction)):
+            raise ValueError("camera_direction_L: must be 3 finite numbers")
+        if np.linalg.norm(direction) < 1e-9:
+            raise ValueError("camera_direction_L: must not be zero")
 
 
 @dataclass
@@ -273,6 +289,7 @@ class RendezvousScene(LeafSystem):
         self._geometry = geometry
         self._meshcat = meshcat
         self._overlay_path = f"{prefix}/overlay"
+        self._bodies_path = f"{prefix}/bodies"
 
         self._sensed_port = declare_sensed_input(self)
 
@@ -303,7 +320,9 @@ class RendezvousScene(LeafSystem):
         )
 
         self.DeclareInitializationPublishEvent(self._Initialize)
-        self.DeclarePeriodicPublishEvent(config.publish_period_s, 0.0, self._Publish)
+        # Published by the diagram's SceneDriver from the Simulator's monitor, never by an
+        # event of its own: a periodic event would add steps and change the physics.
+        self.scene_publish_period_s = config.publish_period_s
 
         # Trail bookkeeping (see module docstring); reset in _Initialize.
         self._trail_p_LC_L = np.zeros((config.trail_max_points, 3))
@@ -463,16 +482,16 @@ class RendezvousScene(LeafSystem):
                 path = self._TrailPath(i)
                 meshcat.SetObject(path, marker, TRAIL_RGBA)
                 meshcat.SetProperty(path, "visible", False, time_in_recording=t)
-        self._Publish(context)
+        self.PublishScene(context)
 
     def _TrailPath(self, i: int) -> str:
         return f"{self._overlay_path}/trail/{i:05d}"
 
-    def _Publish(self, context) -> None:
+    def PublishScene(self, context) -> None:
         """Moves the target node and adds a trail marker; idempotent at a repeated time."""
         t = context.get_time()
         if t <= self._last_publish_time:
-            return  # Initialization and the periodic event can both fire at the start time.
+            return  # Initialization and the driver both publish at the start time.
         self._last_publish_time = t
         X_LT, X_LC = self.CalcPoses(context)
         self._meshcat.SetTransform(f"{self._overlay_path}/target_frame", X_LT, time_in_recording=t)
@@ -541,16 +560,144 @@ class RendezvousScene(LeafSystem):
             scene_graph.get_source_pose_port(scene.source_id()),
         )
         params = MeshcatVisualizerParams()
-        params.publish_period = config.publish_period_s
-        params.prefix = f"{prefix}/bodies"
+        # No periodic event (it would add integrator steps): the SceneDriver force-publishes
+        # the visualizer at the scene's period, from the Simulator's monitor.
+        params.publish_period = math.inf
+        params.prefix = scene._bodies_path
         visualizer = builder.AddNamedSystem(
             f"{name}.meshcat_visualizer", MeshcatVisualizer(meshcat, params)
         )
+        scene.visualizer = visualizer
         builder.Connect(scene_graph.get_query_output_port(), visualizer.query_object_input_port())
         meshcat.SetProperty("/Background", "visible", config.meshcat_background)
-        if len(config.camera_position_L_m) == 3:
-            meshcat.SetCameraPose(np.asarray(config.camera_position_L_m, dtype=float), np.zeros(3))
         return scene
+
+    def FrameCamera(self, p_LC_L_samples: np.ndarray) -> None:
+        """Points the camera at what the run drew, sets the far plane behind it, marks small bodies.
+
+        With `camera_position_L_m` empty (the default) the camera looks at the centre of the
+        box holding the target and every chaser position of the run, from the direction
+        `camera_direction_L`, far enough that the box's bounding sphere fills the view; given,
+        it sits there and looks at that centre. Either way the far plane lies beyond the whole
+        content (Meshcat's default far plane is 100 m: a 150 m approach would open blank).
+
+        A body that this camera would show less than LOCATOR_PIXELS across (a 1 m chaser
+        300 m out is one pixel) gets a locator: a translucent sphere of its colour,
+        LOCATOR_PIXELS across at the content's distance, that moves with it. The trail markers
+        grow to at least a pixel. The bodies themselves keep their true size.
+
+        Args:
+            p_LC_L_samples: the chaser's logged positions (N, 3) in L [m].
+        """
+        config = self._config
+        extent = max(self._geometry.body_extent_m("target"), self._geometry.body_extent_m("chaser"))
+        points = np.vstack([np.zeros((1, 3)), np.asarray(p_LC_L_samples, float).reshape(-1, 3)])
+        low = points.min(axis=0) - extent
+        high = points.max(axis=0) + extent
+        centre = 0.5 * (low + high)
+        radius = max(0.5 * float(np.linalg.norm(high - low)), extent)
+        if len(config.camera_position_L_m) == 3:
+            camera = np.asarray(config.camera_position_L_m, dtype=float)
+        else:
+            direction = np.asarray(config.camera_direction_L, dtype=float)
+            # The sphere fits the vertical field of view with 10 % to spare.
+            distance = 1.1 * radius / math.sin(math.radians(CAMERA_FOV_DEG / 2.0))
+            camera = centre + distance * direction / np.linalg.norm(direction)
+        reach = float(np.linalg.norm(camera - centre)) + radius
+        near = max(1e-3, min(0.01 * reach, 0.1))
+        self._meshcat.SetCamera(
+            Meshcat.PerspectiveCamera(fov=CAMERA_FOV_DEG, near=near, far=2.0 * reach)
+        )
+        self._meshcat.SetCameraPose(camera, centre)
+
+        # One pixel at the content's centre, in a window NOMINAL_VIEW_PIXELS high.
+        pixel_m = (
+            2.0
+            * float(np.linalg.norm(camera - centre))
+            * math.tan(math.radians(CAMERA_FOV_DEG / 2.0))
+            / NOMINAL_VIEW_PIXELS
+        )
+        for body, rgba in (("target", TARGET_RGBA), ("chaser", CHASER_RGBA)):
+            if self._geometry.body_extent_m(body) < LOCATOR_PIXELS * pixel_m:
+                self._meshcat.SetObject(
+                    f"{self._bodies_path}/{body}/locator",
+                    Sphere(0.5 * LOCATOR_PIXELS * pixel_m),
+                    Rgba(rgba.r(), rgba.g(), rgba.b(), LOCATOR_ALPHA),
+                )
+        if config.trail and config.trail_marker_radius_m < pixel_m:
+            marker = Sphere(pixel_m)
+            for i in range(config.trail_max_points):
+                self._meshcat.SetObject(self._TrailPath(i), marker, TRAIL_RGBA)
+
+
+class SceneDriver:
+    """Publishes a diagram's scene systems from the Simulator's monitor, never by events.
+
+    A periodic publish event makes the integrator end a step at its time, so a scene drawn
+    that way changes the physics it shows (a recorded run differed from the same run
+    unrecorded: 801 against 402 steps, 13.60 against 13.75 m/s of delta-v). The driver is
+    called after every integrator step (simulate sets it as part of the Simulator's
+    monitor) and publishes each system at the first step end at or after each multiple of
+    its period, stamped with that step's true time. Steps end at every log sample, control
+    period and PWM slot, so a scene whose period is a multiple of the log period is drawn on
+    time; a shorter one is drawn at the step ends (at most once per step).
+
+    Systems it drives: any with `scene_publish_period_s` and `PublishScene(context)`
+    (RendezvousScene, PlannedPathOverlay, the method scenes), and MeshcatVisualizers
+    (force-published at the period of the scene that added them).
+    """
+
+    def __init__(self):
+        self._entries = []  # [system, period_s, publish, next_time_s, last_time_s]
+
+    def add(self, system, period_s: float, publish) -> None:
+        """Publishes `system` by `publish(its context)` every `period_s` of simulated time."""
+        self._entries.append([system, float(period_s), publish, 0.0, -math.inf])
+
+    @classmethod
+    def for_systems(cls, systems) -> "SceneDriver":
+        """A driver of every scene system among `systems` (e.g. builder.GetSystems())."""
+        driver = cls()
+        for system in systems:
+            if hasattr(system, "PublishScene") and hasattr(system, "scene_publish_period_s"):
+                driver.add(system, system.scene_publish_period_s, system.PublishScene)
+                visualizer = getattr(system, "visualizer", None)
+                if visualizer is not None:
+                    driver.add(visualizer, system.scene_publish_period_s, visualizer.ForcedPublish)
+        return driver
+
+    def __len__(self) -> int:
+        return len(self._entries)
+
+    def attach(self, simulator) -> "SceneDriver":
+        """Makes this driver the simulator's monitor (for a diagram drawn on its own; rpod's
+        simulate chains it with its other per-step checks instead). Returns self."""
+
+        def monitor(root_context):
+            self.observe(root_context)
+            return EventStatus.Succeeded()
+
+        simulator.set_monitor(monitor)
+        return self
+
+    def observe(self, root_context) -> None:
+        """Publishes what is due at this step end (root_context: the diagram's)."""
+        t = root_context.get_time()
+        for entry in self._entries:
+            system, period, publish, due, _ = entry
+            if t >= due - 1e-9 * max(1.0, abs(due)):
+                publish(system.GetMyContextFromRoot(root_context))
+                entry[3] = period * (math.floor(t / period + 1e-9) + 1.0)
+                entry[4] = t
+
+    def finish(self, root_context) -> None:
+        """Publishes every system at the run's last instant, unless it already has."""
+        t = root_context.get_time()
+        for entry in self._entries:
+            system, _, publish, _, last = entry
+            if last < t:
+                publish(system.GetMyContextFromRoot(root_context))
+                entry[4] = t
 
 
 class PlannedPathOverlay(LeafSystem):
@@ -583,7 +730,9 @@ class PlannedPathOverlay(LeafSystem):
             "planned_path", AbstractValue.Make(object())
         )
         self.DeclareInitializationPublishEvent(self._Initialize)
-        self.DeclarePeriodicPublishEvent(publish_period_s, 0.0, self._Publish)
+        # Published by the diagram's SceneDriver from the Simulator's monitor, never by an
+        # event of its own: a periodic event would add steps and change the physics.
+        self.scene_publish_period_s = publish_period_s
         self._drawn_index = 0
         self._start_time = 0.0
 
@@ -591,9 +740,9 @@ class PlannedPathOverlay(LeafSystem):
         self._meshcat.Delete(self._root)
         self._drawn_index = 0
         self._start_time = context.get_time()
-        self._Publish(context)
+        self.PublishScene(context)
 
-    def _Publish(self, context) -> None:
+    def PublishScene(self, context) -> None:
         path = self._path_port.Eval(context)
         index = int(getattr(path, "index", 0))
         if index == self._drawn_index or index == 0:

@@ -413,6 +413,13 @@ class Truth(LeafSystem):
 
     # ---- Outputs. ----
 
+    def separation_of_origins_m(self, context: Context) -> float:
+        """|p_TC|: the chaser's origin from the target's [m], read off the state (it is the
+        same in ECI and in L), for cheap tests that need no output (the contact watch's)."""
+        state = context.get_continuous_state_vector()
+        x, y, z = state.GetAtIndex(6), state.GetAtIndex(7), state.GetAtIndex(8)
+        return math.sqrt(x * x + y * y + z * z)
+
     def _state(self, context: Context) -> np.ndarray:
         return context.get_continuous_state_vector().CopyToVector()
 

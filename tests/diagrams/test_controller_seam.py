@@ -163,7 +163,12 @@ def test_ideal_acceleration_controller_defined_in_a_test_flies_through_rpod_run(
     np.testing.assert_allclose(log["p_LC_L"][-1], [0.0, -20.0, 0.0] + 0.5 * a * t * t, atol=1e-6)
     assert summary["delta_v_m_s"] == pytest.approx(np.linalg.norm(a) * t, rel=1e-6)
     assert summary["moved_m"] == pytest.approx(0.5 * np.linalg.norm(a) * t * t, rel=1e-6)
-    assert summary["mission"] == {"success": True, "outcome": f"moved {summary['moved_m']:.2f} m"}
+    assert summary["mission"] == {
+        "success": True,
+        "outcome": f"moved {summary['moved_m']:.2f} m",
+        "controller_success": True,
+        "contact": False,
+    }
     assert "commanded_acceleration_L" in log
 
 

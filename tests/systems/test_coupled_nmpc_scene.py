@@ -37,7 +37,7 @@ from rpod.systems.coupled_nmpc_scene import (
     los_pyramid_vertices,
     thrust_arrows_C,
 )
-from rpod.systems.scene import RendezvousScene, SceneConfig
+from rpod.systems.scene import RendezvousScene, SceneConfig, SceneDriver
 from rpod.systems.sensed import sensed_vector
 
 LAYOUT = gimbaled_cuboid_8()
@@ -165,9 +165,14 @@ def _scene_diagram(
         )
     diagram = builder.Build()
     simulator = Simulator(diagram)
+    SceneDriver.for_systems(diagram.GetSystems()).attach(simulator)
     if record:
         start_recording(meshcat)
-    simulator.AdvanceTo(duration_s)
+    # The scene is drawn at step ends (SceneDriver); this diagram has no events of its own,
+    # so the test ends a step at every publish time.
+    simulator.Initialize()
+    for t in np.arange(PERIOD_S, duration_s + 1e-9, PERIOD_S):
+        simulator.AdvanceTo(t)
     return diagram, scene, arrows
 
 

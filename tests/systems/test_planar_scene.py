@@ -21,6 +21,7 @@ from rpod.systems.planar_scene import (
     keepout_outlines_T,
     prism_mesh,
 )
+from rpod.systems.scene import SceneDriver
 from rpod.systems.sensed import SENSED_SIZE, sensed_vector
 
 GEOMETRY = pa.KeepOutGeometry(0.3, 0.3)
@@ -94,9 +95,14 @@ def _simulate(meshcat, duration_s=10.0, record=False, heading_error_rad=0.0):
     )
     diagram = builder.Build()
     simulator = Simulator(diagram)
+    SceneDriver.for_systems(diagram.GetSystems()).attach(simulator)
     if record:
         start_recording(meshcat)
-    simulator.AdvanceTo(duration_s)
+    # The scene is drawn at step ends (SceneDriver); this diagram has no events of its own,
+    # so the test ends a step at every publish time.
+    simulator.Initialize()
+    for t in np.arange(PERIOD_S, duration_s + 1e-9, PERIOD_S):
+        simulator.AdvanceTo(t)
     return system
 
 

@@ -27,7 +27,7 @@ from rpod.diagrams.recording import (
     screenshot_html,
     start_recording,
 )
-from rpod.systems.scene import RendezvousScene, SceneConfig, SceneGeometry
+from rpod.systems.scene import RendezvousScene, SceneConfig, SceneDriver, SceneGeometry
 from rpod.systems.sensed import SENSED_FIELDS, sensed_vector
 
 CHROMIUM = Path("/usr/bin/chromium")
@@ -180,8 +180,14 @@ def test_trail_ring_buffer_replays_without_sliding_markers():
     builder.Connect(
         scene.get_geometry_pose_output_port(), scene_graph.get_source_pose_port(scene.source_id())
     )
-    simulator = Simulator(builder.Build())
-    simulator.AdvanceTo(DURATION_S)
+    diagram = builder.Build()
+    simulator = Simulator(diagram)
+    SceneDriver.for_systems(diagram.GetSystems()).attach(simulator)
+    # The scene is drawn at step ends (SceneDriver); this diagram has no events of its own,
+    # so the test ends a step at every publish time.
+    simulator.Initialize()
+    for t in np.arange(0.5, DURATION_S + 1e-9, 0.5):
+        simulator.AdvanceTo(t)
 
     trail_paths = sorted(path for path in meshcat.visible if "/trail/" in path)
     assert len(trail_paths) == pool
@@ -243,8 +249,13 @@ def test_recording_html_replays_scene_and_renders(tmp_path):
     for name in ("scene", "scene.scene_graph", "scene.meshcat_visualizer"):
         assert diagram.HasSubsystemNamed(name), name
     simulator = Simulator(diagram)
+    SceneDriver.for_systems(diagram.GetSystems()).attach(simulator)
     start_recording(meshcat, fps=32.0)
-    simulator.AdvanceTo(DURATION_S)
+    # The scene is drawn at step ends (SceneDriver); this diagram has no events of its own,
+    # so the test ends a step at every publish time.
+    simulator.Initialize()
+    for t in np.arange(0.5, DURATION_S + 1e-9, 0.5):
+        simulator.AdvanceTo(t)
     html_path = save_recording_html(meshcat, tmp_path / "out" / "recording.html")
 
     assert html_path.is_file()

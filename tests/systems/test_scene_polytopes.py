@@ -91,10 +91,10 @@ def test_the_overlay_shows_each_plan_from_its_time_and_hides_the_replaced_one():
     port.FixValue(context, AbstractValue.Make(PlannedPath(1, 0.0, path)))
     overlay._Initialize(context)
     context.SetTime(1.0)
-    overlay._Publish(context)  # same plan: nothing new
+    overlay.PublishScene(context)  # same plan: nothing new
     context.SetTime(10.0)
     port.FixValue(context, AbstractValue.Make(PlannedPath(2, 10.0, path[1:])))
-    overlay._Publish(context)
+    overlay.PublishScene(context)
 
     lines = [args for name, args, _ in meshcat.calls if name == "SetLine"]
     assert [args[0] for args in lines] == ["rpod/overlay/plans/001/line",
