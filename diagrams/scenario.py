@@ -245,9 +245,8 @@ class Scenario:
     stop: StopConfig = dataclasses.field(default_factory=StopConfig)
     log_period_s: float = 1.0
     simulator: SimulatorConfig = dataclasses.field(default_factory=default_simulator_config)
-    visualization: SceneConfig = dataclasses.field(
-        default_factory=lambda: SceneConfig(camera_position_L_m=[25.0, -40.0, 18.0])
-    )
+    # The camera frames each run from its content unless the scenario places it.
+    visualization: SceneConfig = dataclasses.field(default_factory=SceneConfig)
 
 
 def _refresh_controller_union() -> None:
