@@ -211,10 +211,21 @@ def _cmd_run(args) -> int:
     said = scenario_warnings(scenario)
     for warning in said:  # at load, before a long run: what is legal but will likely fail
         print(f"rpod: warning: {warning}", file=sys.stderr)
-    with sigterm_as_interrupt():  # SIGTERM cleans up as Ctrl-C does (exit 143)
-        summary = run_to_folder(
-            name, scenario, out_dir, record=not args.no_record, overwrite=args.overwrite
-        )
+    from rpod.scenarios.run_progress import RunProgress
+
+    progress = RunProgress(name)
+    try:
+        with sigterm_as_interrupt():  # SIGTERM cleans up as Ctrl-C does (exit 143)
+            summary = run_to_folder(
+                name,
+                scenario,
+                out_dir,
+                record=not args.no_record,
+                overwrite=args.overwrite,
+                progress=progress,
+            )
+    finally:
+        progress.done()
     for warning in summary.get("warnings", []):
         if warning not in said:  # the run's own (a plan that outlasts it), said at the end
             print(f"rpod: warning: {warning}", file=sys.stderr)

@@ -391,11 +391,13 @@ def run_to_folder(
     out_dir: pathlib.Path,
     record: bool = True,
     overwrite: bool = False,
+    progress=None,
 ) -> dict:
     """Simulates `scenario` and writes its outputs into out_dir; returns the summary.
 
     out_dir is checked before anything is simulated (`staged_folder`); with `overwrite`, a
-    folder rpod did not write is replaced too (`--overwrite`).
+    folder rpod did not write is replaced too (`--overwrite`). `progress` (a
+    rpod.scenarios.run_progress.RunProgress, or None) is told the phases and the run's time.
     """
     with staged_folder(out_dir, overwrite) as staging:
         meshcat = None
@@ -403,7 +405,11 @@ def run_to_folder(
             from rpod.diagrams.recording import make_headless_meshcat
 
             meshcat = make_headless_meshcat()
-        result = simulate(scenario, meshcat=meshcat)
+        if progress is not None:
+            progress.phase("building the diagram and the controller's first plan")
+        result = simulate(scenario, meshcat=meshcat, progress=progress)
+        if progress is not None:
+            progress.phase("writing the log, the plots" + (" and the recording" if record else ""))
         summary = {"scenario": name, **result.summary}
         np.savez_compressed(staging / "log.npz", **result.log)
         (staging / "scenario.yaml").write_text(yaml_dump_typed(scenario))
