@@ -21,6 +21,7 @@ equal bounds on the first node (IPOPT removes fixed variables).
 """
 
 import hashlib
+import logging
 import os
 import pathlib
 import shutil
@@ -158,6 +159,9 @@ def cache_dir() -> pathlib.Path:
     return pathlib.Path(root) / "casadi"
 
 
+_LOG = logging.getLogger("rpod.compile")
+"""Says when a one-time compile starts (rpod run shows it: the run is silent meanwhile)."""
+
 COMPILE_FLAGS = ("-O1", "-fPIC", "-shared")
 """C compiler flags for the derivative code. Measured on one interval's Hessian (2 shared
 cores): -O1 compiles in ~28 s and runs it in ~0.17 ms, -O2 in ~79 s and ~0.20 ms; -O0 (on the
@@ -184,6 +188,9 @@ def compile_functions(functions: list[ca.Function], name: str) -> tuple[list, st
     key = hashlib.sha256(source + " ".join(COMPILE_FLAGS).encode()).hexdigest()[:20]
     library = cache_dir() / f"{name}_{key}.so"
     if not library.exists():
+        _LOG.info(
+            "compiling the NMPC's derivatives to C, once (~30-80 s; cached in %s)", library.parent
+        )
         library.parent.mkdir(parents=True, exist_ok=True)
         with tempfile.TemporaryDirectory(dir=library.parent) as folder:
             c_file = pathlib.Path(folder, f"{name}.c")

@@ -372,9 +372,28 @@ def make_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class _StderrHandler(logging.Handler):
+    """Writes to the sys.stderr of the moment (a test may have replaced it since)."""
+
+    def emit(self, record):
+        print(self.format(record), file=sys.stderr)
+
+
+def _say_compiles() -> None:
+    """One-time compiles (rpod.compile, e.g. the NMPC's C derivatives) said on stderr."""
+    log = logging.getLogger("rpod.compile")
+    if not log.handlers:
+        handler = _StderrHandler()
+        handler.setFormatter(logging.Formatter("rpod: %(message)s"))
+        log.addHandler(handler)
+        log.setLevel(logging.INFO)
+        log.propagate = False
+
+
 def main(argv=None) -> int:
     """Entry point of the `rpod` console script."""
     logging.getLogger("drake").setLevel(logging.WARNING)
+    _say_compiles()
     args = make_parser().parse_args(argv)
     try:
         return args.handler(args)

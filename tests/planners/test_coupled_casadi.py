@@ -6,6 +6,7 @@ of the Lagrangian) for the assembled per-interval ones; the Gauss-Newton SQP (an
 another code path) and scipy's DOP853 (`check_plan`) for the optimum.
 """
 
+import logging
 import shutil
 
 import casadi as ca
@@ -177,14 +178,32 @@ def test_shift_multipliers_moves_every_block_one_interval_on(transcription):
 @pytest.mark.skipif(
     shutil.which("gcc") is None and shutil.which("cc") is None, reason="no C compiler"
 )
+class _Said(logging.Handler):
+    """The messages of one logger (rpod run's own handler stops their propagation)."""
+
+    def __init__(self):
+        super().__init__(logging.INFO)
+        self.messages = []
+
+    def emit(self, record):
+        self.messages.append(record.getMessage())
+
+
 def test_compiled_derivatives_equal_the_virtual_machines(model, tmp_path, monkeypatch):
-    """The C code (compiled once into the cache) computes the same numbers as CasADi's VM."""
+    """The C code (compiled once into the cache) computes the same numbers as CasADi's VM;
+    the compile is said when it starts (rpod run is silent for its ~30-80 s), once."""
     monkeypatch.setenv("RPOD_CACHE_DIR", str(tmp_path))
+    said = _Said()
+    log = logging.getLogger("rpod.compile")
+    monkeypatch.setattr(log, "level", logging.INFO)
+    monkeypatch.setattr(log, "handlers", [*log.handlers, said])  # restored at the end
     params, weights = model
     Phi_w = cc.interval_function(params, weights, 60.0, 2)
     jac, grad, hess = cc.interval_derivatives(Phi_w)
     (jac_c, grad_c, hess_c), message = cc.compile_functions([jac, grad, hess], "probe")
     assert message.startswith("compiled") and str(tmp_path) in message
+    assert len(said.messages) == 1
+    assert "once" in said.messages[0] and str(tmp_path) in said.messages[0]
     rng = np.random.default_rng(3)
     x, u = _random_point(rng, params, cr.sec_iv_initial_state(params))
     args = (x[:21], cr._force_to_wrench_matrix(params) @ u, x[21:])
@@ -197,3 +216,4 @@ def test_compiled_derivatives_equal_the_virtual_machines(model, tmp_path, monkey
     # A second call finds the cached library instead of compiling again.
     _, again = cc.compile_functions([jac, grad, hess], "probe")
     assert again == message
+    assert len(said.messages) == 1
