@@ -1,12 +1,17 @@
 """`rpod report RESULTS`: a campaign's results as tables and plots.
 
-Owns: per-group statistics (count, success rate, metric medians and 5th/95th percentiles), the
-failure reasons, the tables controller plug-ins add (e.g. soft capture beside paper 000),
+Owns: the mission success share of the campaign and of each group (with its Wilson 95 %
+interval), which the report leads with, then the safety figures (runs with contact of the true
+shapes, successes a controller claimed that contact overturned); per-group statistics (count,
+metric medians and 5th/95th percentiles), the simulation failures, the tables controller plug-ins add (e.g. soft capture beside paper 000),
 and the plots (one histogram per metric, with one series per group; and, for a
 campaign with a two-parameter grid, 2-D maps of the success rate and of each metric's median).
 Does not own: the store (store.py) or the runs.
 
-Statistics are over the runs whose status is `ok`. A failed run has no trustworthy metrics: a
+A run's mission verdict is its summary's `mission.success`: True or False, and a simulation
+that failed is a mission failure; a run with no verdict (no controller, no criterion) is not
+counted, and the report says how many there were. Metric statistics are over the runs whose
+status is `ok`. A failed run has no trustworthy metrics: a
 timeout or crash has none, and a simulation that failed stopped early. A boolean metric
 (e.g. `hold_reached`) is reported as the share of runs where it is true. Plots use
 matplotlib's object API (Figure, no pyplot), so they are safe in any process.
@@ -19,8 +24,15 @@ import re
 import numpy as np
 
 from rpod.diagrams import controller_seam
+from rpod.models.statistics import SuccessShare
 from rpod.scenarios.loader import ScenarioFileError
-from rpod.scenarios.store import ResultStore, make_folder, store_path
+from rpod.scenarios.store import (
+    ResultStore,
+    contact_occurred,
+    make_folder,
+    mission_success,
+    store_path,
+)
 
 MAX_GROUPS_PER_HISTOGRAM = 8
 
@@ -70,33 +82,62 @@ def _table(header: list[str], rows: list[list[str]], right: set[int]) -> list[st
     return [line(header), line(["-" * w for w in widths])] + [line(r) for r in rows]
 
 
+def mission_share(rows: list[dict]) -> SuccessShare:
+    """Mission successes over the runs with a verdict."""
+    verdicts = [v for v in map(mission_success, rows) if v is not None]
+    return SuccessShare(sum(verdicts), len(verdicts))
+
+
+def _percent(k: int, n: int) -> str:
+    return f"{k} ({100.0 * k / n:.1f} %)" if n else "--"
+
+
 def summary_text(meta: dict, rows: list[dict], metrics: list[str]) -> str:
-    """The report's tables as plain text."""
+    """The report's tables as plain text: mission success first, then safety, then the rest."""
     groups = _groups(rows)
+    finished = [r for r in rows if r["status"] != "pending"]
+    judged = mission_share(rows).n
+    contacts = sum(map(contact_occurred, finished))
+    overturned = sum(
+        contact_occurred(r)
+        and ((r["metrics"] or {}).get("mission") or {}).get("controller_success") is True
+        for r in finished
+    )
     lines = [
         (
             f"Campaign {meta.get('campaign_name', '?')}: {len(rows)} runs, base "
             f"{meta.get('base_name', '?')}"
         ),
         "",
+        f"Mission success: {mission_share(rows).percent_text()}",
+        (
+            f"Safety: contact of the true shapes in {_percent(contacts, len(finished))} of "
+            f"{len(finished)} finished runs"
+            + (f"; {overturned} of them the controller counted a success" if overturned else "")
+        ),
     ]
+    unjudged = len(finished) - judged
+    if unjudged:
+        lines.append(f"({unjudged} finished runs have no mission to judge and are not counted)")
+    lines.append("")
     group_rows = []
     for name, members in groups.items():
         statuses = [m["status"] for m in members]
-        ok, failed = statuses.count("ok"), statuses.count("failed")
-        done = ok + failed
+        done = [m for m in members if m["status"] != "pending"]
         group_rows.append(
             [
                 name,
                 len(members),
-                ok,
-                failed,
+                mission_share(members).percent_text(),
+                _percent(sum(map(contact_occurred, done)), len(done)),
+                statuses.count("failed"),
                 statuses.count("pending"),
-                f"{100.0 * ok / done:.1f}%" if done else "--",
             ]
         )
     lines += _table(
-        ["group", "runs", "ok", "failed", "pending", "success"], group_rows, {1, 2, 3, 4, 5}
+        ["group", "runs", "mission success", "contact", "sim failed", "pending"],
+        group_rows,
+        {1, 3, 4, 5},
     )
 
     bools = {m for m in metrics if any(isinstance((r["metrics"] or {}).get(m), bool) for r in rows)}
@@ -133,7 +174,7 @@ def summary_text(meta: dict, rows: list[dict], metrics: list[str]) -> str:
             reason = (row["reason"] or "(no reason)")[:100]
             reasons[reason] = reasons.get(reason, 0) + 1
     if reasons:
-        lines += ["", "Failures:", ""]
+        lines += ["", "Simulation failures:", ""]
         lines += _table(
             ["runs", "reason"],
             [[n, r] for r, n in sorted(reasons.items(), key=lambda item: -item[1])],
@@ -204,12 +245,7 @@ def _grid_maps(meta, rows, metrics, out_dir: pathlib.Path) -> list[pathlib.Path]
             point = row["grid_point"]
             key = (x_values.index(point[x_path]), y_values.index(point[y_path]))
             cells.setdefault(key, []).append(row)
-        maps = {
-            "success_rate": lambda rs: (
-                sum(r["status"] == "ok" for r in rs)
-                / max(1, sum(r["status"] != "pending" for r in rs))
-            )
-        }
+        maps = {"mission_success": lambda rs: mission_share(rs).share}
         for metric in metrics:
             maps[metric] = lambda rs, m=metric: (
                 float(np.median(v)) if (v := _values(rs, m)).size else np.nan
@@ -245,7 +281,7 @@ def _grid_maps(meta, rows, metrics, out_dir: pathlib.Path) -> list[pathlib.Path]
             axes.set_yticks(y_ticks, [str(y_values[i]) for i in y_ticks], fontsize=8)
             axes.set_xlabel(x_path)
             axes.set_ylabel(y_path)
-            label = "success rate" if name == "success_rate" else f"median {name}"
+            label = "mission success share" if name == "mission_success" else f"median {name}"
             axes.set_title(f"{label}" + (f" ({case})" if case else ""), fontsize=10)
             figure.colorbar(mesh, ax=axes)
             stem = f"map_{_safe_name(name)}" + (f"_{_safe_name(case)}" if case else "")

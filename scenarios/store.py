@@ -381,3 +381,22 @@ class ResultStore:
                             ) from None
                 rows.append(row)
         return rows
+
+
+def mission_success(row: dict) -> bool | None:
+    """The run's mission verdict: True, False (a failed simulation is False), or None.
+
+    None: the run is pending, or its scenario has no mission to judge (no controller or no
+    criterion), or it was stored before rpod judged missions.
+    """
+    if row["status"] == "failed":
+        return False
+    if row["status"] != "ok" or not row["metrics"]:
+        return None
+    success = (row["metrics"].get("mission") or {}).get("success")
+    return None if success is None else bool(success)
+
+
+def contact_occurred(row: dict) -> bool:
+    """Whether the run's true shapes touched (summary `contact.occurred`)."""
+    return bool(((row["metrics"] or {}).get("contact") or {}).get("occurred"))

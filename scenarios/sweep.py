@@ -71,6 +71,7 @@ from rpod.scenarios.store import (
     STORE_NAME,
     ResultStore,
     make_folder,
+    mission_success,
     plan_fingerprint,
     remove_folders,
 )
@@ -110,7 +111,10 @@ class SweepOutcome:
 
 
 class Progress:
-    """Runs done / failed / remaining, success rate and ETA, on stderr.
+    """Runs done / failed / remaining, mission success so far and ETA, on stderr.
+
+    Mission success counts the finished runs with a verdict (rpod.scenarios.report
+    .mission_success): a run that ran is not a run that succeeded.
 
     On a terminal the line is redrawn in place. Otherwise (a log file, CI) a line is written
     per update, at most one a second, and always the last one.
@@ -120,9 +124,18 @@ class Progress:
         self.stream = stream if stream is not None else sys.stderr
         self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
         self.label, self.total, self.ok, self.failed = label, total, ok, failed
+        self.successes = self.judged = 0
         self._done_before = ok + failed
         self._start = time.monotonic()
         self._last_write = float("-inf")
+
+    def judge(self, rows) -> None:
+        """Counts the mission verdicts of finished runs (store rows or run results)."""
+        for row in rows:
+            verdict = mission_success(row)
+            if verdict is not None:
+                self.judged += 1
+                self.successes += verdict
 
     def update(self, ok: int, failed: int, final: bool = False) -> None:
         self.ok, self.failed = ok, failed
@@ -137,7 +150,11 @@ class Progress:
             eta = "0:00:00"
         else:
             eta = str(datetime.timedelta(seconds=round(left / rate))) if rate > 0 else "--"
-        success = f"{100.0 * ok / done:.1f}% ok" if done else "--% ok"
+        if self.judged:
+            share = 100.0 * self.successes / self.judged
+            success = f"mission success {share:.1f}% ({self.successes}/{self.judged})"
+        else:
+            success = "mission success --"
         width = 20
         filled = int(width * done / self.total) if self.total else width
         line = (
@@ -480,9 +497,11 @@ def _run_locked(
             left = counts["pending"] + (counts["failed"] if retry_failed else 0)
             if left == 0 and sum(counts.values()) == len(runs):  # nothing to run: no cluster
                 store.checkpoint()
-                Progress(
+                progress = Progress(
                     campaign.name, len(runs), counts["ok"], counts["failed"], progress_stream
-                ).update(counts["ok"], counts["failed"], final=True)
+                )
+                progress.judge(store.rows())
+                progress.update(counts["ok"], counts["failed"], final=True)
                 return SweepOutcome(counts, 0, False, False, 0.0, 0.0, store_file)
 
     started = time.perf_counter()
@@ -568,6 +587,7 @@ def _submit_all(
     queue = deque(store.pending_ids())
     counts = store.counts()
     progress = Progress(campaign.name, len(runs), counts["ok"], counts["failed"], progress_stream)
+    progress.judge(row for row in store.rows() if row["status"] != "pending")
     progress.update(counts["ok"], counts["failed"], final=not queue)
     request = _requests(campaign, runs, out_dir, timeout_s, save_runs, record)
     in_flight = {}
@@ -607,6 +627,7 @@ def _submit_all(
                 key = "ok" if result["status"] == "ok" else "failed"
                 counts[key] += 1
                 counts["pending"] -= 1
+                progress.judge([result])
             progress.update(counts["ok"], counts["failed"], final=counts["pending"] == 0)
             submit_more()
     except KeyboardInterrupt:
