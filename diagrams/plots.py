@@ -103,6 +103,7 @@ _SHAPES = {
     "thruster_duty": -1,
     "thruster_on": -1,
     "thruster_delivered_duty": -1,
+    "thruster_force_C": -1,  # a gimbaled bank's force vectors (3 per thruster, in C)
     "body_wrench": 6,
     "propellant_kg": None,
     "separation_m": None,
@@ -506,9 +507,8 @@ def _figure_thrust(log: _Log, title: str) -> Figure | None:
     panels = []
     if _has_finite(wrench):
         panels += [("force", wrench[:, 3:6]), ("torque", wrench[:, 0:3])]
-    if _has_finite(prop):
-        finite = prop[np.isfinite(prop)]
-        panels.append(("propellant", finite[0] - prop))
+    if _has_finite(prop):  # the log's propellant_kg is already the mass used since t = 0
+        panels.append(("propellant", prop))
     if not panels:
         return None
     t = log.t
@@ -585,7 +585,9 @@ def _figure_duty(log: _Log, title: str) -> Figure | None:
             else:
                 label = "fraction on [-]" if averaged else "on (1) / off (0)"
                 _heatmap(fig, ax, fig.add_subplot(gs[i, 1]), edges, cells, label, "Greys")
-        if kind == "duty":
+        if kind == "duty" and log.get("thruster_force_C") is not None:
+            panel_title = f"throttle |f_k| / f_max per gimbaled thruster ({n} thrusters, no PWM)"
+        elif kind == "duty":
             panel_title = f"commanded duty cycle per thruster ({n} thrusters)"
         elif delivered is not None:
             panel_title = (

@@ -83,14 +83,18 @@ def _collect_log(diagram, context, handles: DiagramHandles, scenario: Scenario) 
         log[key] = data[key][:, 0]
     n = handles.layout.count if handles.layout is not None else 0
     zeros = np.zeros((count, n))
-    log["thruster_duty"] = data.get("thruster_duty", zeros)
-    log["thruster_on"] = data.get("thruster_on", zeros)
-    log["command_clipped"] = data.get("command_clipped", zeros)
-    # Without PWM the duty is applied as throttle: delivered equals commanded.
-    log["thruster_delivered_duty"] = data.get("thruster_delivered_duty", log["thruster_duty"])
-    log["body_wrench"] = data.get("body_wrench", np.zeros((count, 6)))
     if "thruster_force_C" in data:  # a gimbaled bank: the commanded force vectors (3 each)
-        log["thruster_force_C"] = data["thruster_force_C"]
+        forces = data["thruster_force_C"]
+        log["thruster_force_C"] = forces
+        # Each thruster's throttle is its force's magnitude over its largest (no PWM).
+        magnitude = np.linalg.norm(forces.reshape(count, n, 3), axis=2)
+        log["thruster_duty"] = magnitude / handles.layout.max_thrusts_N
+    for key in ("thruster_duty", "thruster_on", "thruster_delivered_duty"):
+        if key in data:  # on-levels of fixed thrusters; delivered_duty only behind PWM
+            log[key] = data[key]
+    # No thrusters flying (an ideal actuator, or none): no duty logged, none drawn as zero.
+    log["command_clipped"] = data.get("command_clipped", zeros)
+    log["body_wrench"] = data.get("body_wrench", np.zeros((count, 6)))
     for key in handles.wiring.logged if handles.wiring is not None else ():
         log[key] = data[key]  # the controller's own signals, under the names it gave them
     return log

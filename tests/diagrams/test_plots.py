@@ -230,3 +230,16 @@ def test_interrupted_save_leaves_no_truncated_png(tmp_path, monkeypatch):
     monkeypatch.setattr(Figure, "savefig", failing_savefig)
     assert write_plots(log, tmp_path) == []  # logged, not raised
     assert not list(tmp_path.glob("*.png")) and not list(tmp_path.glob(".*.tmp"))
+
+
+def test_propellant_used_is_drawn_positive_with_its_total(tmp_path):
+    """The log's propellant_kg is the mass used since t = 0; it was drawn negated, titled
+    'total 0 kg'."""
+    from rpod.diagrams import plots
+
+    log = _synthetic_log(num_samples=200)
+    log["propellant_kg"] = np.linspace(0.0, 0.25, 200)
+    figure = plots._figure_thrust(plots._Log(log), "")
+    axes = next(ax for ax in figure.axes if ax.get_ylabel() == "propellant used [kg]")
+    assert axes.get_title() == "propellant used (total 0.25 kg)"
+    assert np.all(axes.lines[0].get_ydata() >= 0.0)

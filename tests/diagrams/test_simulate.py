@@ -142,3 +142,18 @@ def test_a_recording_leaves_the_log_bit_identical(name):
         if WALL_CLOCK.search(key):
             continue  # a solver's wall time, not physics
         np.testing.assert_array_equal(plain.log[key], drawn.log[key], err_msg=key)
+
+
+def test_thruster_duty_is_logged_only_where_thrusters_fly():
+    """duty.png showed every thruster at zero on the ideal and gimbaled paths: an ideal
+    actuator has no duty to log (none, not zeros), and a gimbaled thruster's throttle is its
+    force's magnitude over its largest."""
+    _, ideal = load_scenario("los_corridor")
+    ideal = apply_overrides(ideal, {"duration_s": 5.0, "controller.mpc.horizon": 10})
+    assert "thruster_duty" not in simulate(ideal).log
+    _, gimbaled = load_scenario("asteroid_grasp")
+    log = simulate(apply_overrides(gimbaled, {"duration_s": 30.0})).log
+    forces = log["thruster_force_C"].reshape(len(log["t"]), -1, 3)
+    expected = np.linalg.norm(forces, axis=2) / 20.0  # the bundled bank: 8 x 20 N
+    np.testing.assert_allclose(log["thruster_duty"], expected, rtol=1e-12)
+    assert np.all(log["thruster_duty"] <= 1.0 + 1e-9) and np.any(log["thruster_duty"] > 0.01)
