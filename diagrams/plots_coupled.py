@@ -36,7 +36,7 @@ Figures:
                          thruster against f_max (eq. 17); (d) each thruster's gimbal face-angle
                          against alpha (eq. 16).
   coupled_nmpc.png       (a) LOS margin (outside shaded red, time outside and the last exit in
-                         the title); (b) the NMPC's solve time; (c) status and fallback strips.
+                         the title; the samples the outcome line counts); (b) the NMPC's solve time; (c) status and fallback strips.
 
 Decisions:
 - Gimbal angle: the pyramid of eq. 16 bounds |f.e| <= tan(alpha) f.n separately for its two
@@ -449,15 +449,25 @@ def _fallback_styles(codes: np.ndarray) -> dict[int, tuple[str, str]]:
 
 
 def _panel_los(ax, log: _Log, edges) -> None:
+    # The samples the run's outcome line counts (the plug-in's rule), so the two agree.
+    from rpod.diagrams.controllers.coupled_nmpc import (  # here: the plug-in imports this module
+        DISTANCE_TOLERANCE_M,
+        LOS_TOLERANCE_M,
+        los_counted_outside,
+    )
+
     t, margin = log.t, log.get("coupled_los_margin_m")
-    outside = margin < 0.0
+    p = log.get("coupled_p_PtPc_T_m")
+    distance = np.linalg.norm(p, axis=1) if p is not None else np.full(len(t), np.inf)
+    outside = los_counted_outside(margin, distance)
     _bands(
         ax, edges, outside.astype(float), {1: ("outside the LOS pyramid", "tab:red")}, alpha=0.15
     )
     ax.plot(*_envelope(t, margin), color="k", lw=1.2, label="margin (positive inside)")
     ax.axhline(0.0, color="tab:red", lw=0.9, ls="--")
     _signed_scale(ax, margin)
-    duration, depth, exit_s = _outside_summary(t, margin)
+    counted = np.where(outside, margin, 0.0)
+    duration, depth, exit_s = _outside_summary(t, counted)
     if depth == 0.0:
         text = "inside throughout"
     else:
@@ -465,7 +475,12 @@ def _panel_los(ax, log: _Log, edges) -> None:
             f"inside from t = {exit_s:.4g} s on" if exit_s is not None else "outside at the end"
         )
     ax.set_ylabel("LOS margin [m]")
-    ax.set_title(f"distance inside the LOS pyramid at the rock (eq. 18): {text}", fontsize=10)
+    ax.set_title(
+        f"distance inside the LOS pyramid at the rock (eq. 18): {text}\n(counted: more than "
+        f"{1e3 * LOS_TOLERANCE_M:g} mm outside, beyond {DISTANCE_TOLERANCE_M:g} m of the rock, "
+        "as in the run's line)",
+        fontsize=10,
+    )
     ax.legend(**_LEGEND_OUTSIDE)
 
 

@@ -52,8 +52,10 @@ Solvers (`CoupledNmpcSettings.solver`):
   (~1.2 s), warm-started in the closed loop in 4-6 iterations.
 - "rti": one SQP iteration per solve from the shifted previous solution (the first solve, with
   no previous solution, is run to convergence).
-- "casadi_ipopt": the paper's own setup, IPOPT with the exact Hessian of the Lagrangian through
-  CasADi (rpod.planners.coupled_casadi), on the same transcription. It converges on T = 480 s
+- "casadi_ipopt": the paper's solver stack (CasADi and IPOPT, Sec. IV) but not its
+  transcription: IPOPT with the exact Hessian of the Lagrangian through CasADi
+  (rpod.planners.coupled_casadi) on rpod's RK4 multiple shooting, where the paper uses
+  collocation with two points per interval (after eq. 22). It converges on T = 480 s
   from Sec. IV's cold start (~90 iterations) and, warm-started with the shifted previous solution
   and multipliers, in ~12 iterations per closed-loop step (benchmarks/bench_coupled_nmpc.py).
 - "ipopt" (the paper's solver) and "snopt" through Drake's MathematicalProgram. Drake hands

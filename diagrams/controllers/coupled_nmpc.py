@@ -83,6 +83,17 @@ ATTITUDE_TOLERANCE_DEG = 1.0
 DISTANCE_TOLERANCE_M = 0.1
 CONSTRAINT_TOLERANCE_N = 1e-6
 LOS_TOLERANCE_M = 1e-3
+
+
+def los_counted_outside(margin_m: np.ndarray, distance_m: np.ndarray) -> np.ndarray:
+    """The samples counted outside the LOS pyramid (eq. 18): more than LOS_TOLERANCE_M out, and
+    not within DISTANCE_TOLERANCE_M of the rock (there the pyramid's apex is mm away and its
+    margin is noise). The outcome line and coupled_nmpc.png both count these."""
+    return (np.asarray(margin_m) < -LOS_TOLERANCE_M) & (
+        np.asarray(distance_m) >= DISTANCE_TOLERANCE_M
+    )
+
+
 INTEGRAL_WEIGHT = 1e-6  # Q_xi / I3: rpod's, not the printed 1e-9 (module docstring)
 STATUS_LOG_KEY = "coupled_nmpc_status_vector"  # the raw (n, 5) log, split in results()
 
@@ -377,8 +388,7 @@ class CoupledNmpcPlugin(ControllerPlugin):
         ok = (error_deg < ATTITUDE_TOLERANCE_DEG) & (distance < DISTANCE_TOLERANCE_M)
         converged_at = _converged_at(t, ok)
         margin = out["coupled_los_margin_m"]
-        # Within the grasp ball the pyramid's apex is mm away: its margin there is noise.
-        outside = np.flatnonzero((margin < -LOS_TOLERANCE_M) & (distance >= DISTANCE_TOLERANCE_M))
+        outside = np.flatnonzero(los_counted_outside(margin, distance))
         last_violation = float(t[outside[-1]]) if len(outside) else None
         start = outside[-1] + 1 if len(outside) else 0
         after = margin[start:][distance[start:] >= DISTANCE_TOLERANCE_M]

@@ -193,3 +193,24 @@ def test_outside_summary_hand_cases():
     # Ends outside: no exit; the last sample held as long as the one before.
     assert _outside_summary(t, np.array([1.0, 1.0, 1.0, 1.0, -2.0, -1.0])) == (2.0, 2.0, None)
     assert _outside_summary(t, np.ones(6)) == (0.0, 0.0, None)
+
+
+def test_the_los_panel_counts_the_samples_the_outcome_line_counts():
+    """coupled_nmpc.png said 'outside at the end' while the line said the LOS was held: the
+    panel counted every negative margin, the outcome only those more than 1 mm out and beyond
+    0.1 m of the rock (where the pyramid's apex makes the margin noise)."""
+    from matplotlib.figure import Figure
+
+    from rpod.diagrams.controllers.coupled_nmpc import los_counted_outside
+
+    log = _coupled_log()
+    n = len(log["t"])
+    margin = np.full(n, 0.5)
+    margin[:200] = -2.0  # outside until t = 100 s
+    margin[-50:] = -0.0005  # half a millimetre out at the end: not counted
+    log["coupled_los_margin_m"] = margin
+    distance = np.linalg.norm(log["coupled_p_PtPc_T_m"], axis=1)
+    assert np.flatnonzero(los_counted_outside(margin, distance))[-1] == 199
+    ax = Figure().add_subplot()
+    plots_coupled._panel_los(ax, _Log(log), np.r_[log["t"], log["t"][-1] + 0.5])
+    assert "inside from t = 100 s on" in ax.get_title()
