@@ -57,12 +57,11 @@ import numpy as np
 from machine import machine_line  # benchmarks/machine.py, beside this script
 from pydrake.solvers import ClarabelSolver, CommonSolverOption, SolverOptions
 
-from rpod.models.cw import passively_safe_state
 from rpod.planners.pointing import pointing_attitudes, pointing_rotation_jacobian
 from rpod.planners.soft_capture import (
     SoftCaptureConfig,
     SoftCapturePlanner,
-    predict_for_planner,
+    sample_sec_vib_start,
     terminal_targets,
 )
 from rpod.planners.soft_capture_scp import evaluate_alpha
@@ -78,35 +77,7 @@ HORIZONS = (100, 200, 350)
 SIDES = ("rpod", "raw", "drake")
 GOAL_RATIO = 1.15
 COST_RTOL = 1e-6
-INERTIA_KG_M2 = np.array(  # paper 000 eq. (27)
-    [[5.89056, 0.0, 0.0], [0.0, 11.4462, 0.233516], [0.0, 0.233516, 11.5365]]
-)
-
-
-# ---------------------------------------------------------------------------------------------
-# Starts.
-
-
-def sample_start(rng: np.random.Generator, config: SoftCaptureConfig):
-    """One Sec. VI-B-like start: (x0 (6,), TargetPrediction over N_max knots)."""
-    n = config.mean_motion
-    while True:
-        A0, B0 = rng.uniform(15.0, 25.0), rng.uniform(10.0, 25.0)
-        phase, phase_z = rng.uniform(0.0, 2.0 * np.pi, 2)
-        x0 = passively_safe_state(
-            n,
-            A0 * np.cos(phase),
-            n * A0 * np.sin(phase),
-            B0 * np.cos(phase_z),
-            n * B0 * np.sin(phase_z),
-        )
-        if 15.0 <= np.linalg.norm(x0[:3]) <= 50.0:
-            break
-    q = rng.normal(size=4)
-    q /= np.linalg.norm(q)
-    axis = rng.normal(size=3)
-    w = axis / np.linalg.norm(axis) * np.radians(rng.uniform(0.0, 10.0))
-    return x0, predict_for_planner(config, q, w, INERTIA_KG_M2)
+# Starts: rpod.planners.soft_capture.sample_sec_vib_start (shared with the guard tests).
 
 
 def horizon_data(config: SoftCaptureConfig, x0, prediction, N: int):
@@ -704,8 +675,8 @@ def main(argv=None) -> int:
     start_time = time.perf_counter()
     config = SoftCaptureConfig()
     rng = np.random.default_rng(args.seed)
-    args.start_list = [sample_start(rng, config) for _ in range(args.starts)]
-    plan_starts = [sample_start(rng, config) for _ in range(args.plans)]
+    args.start_list = [sample_sec_vib_start(rng, config) for _ in range(args.starts)]
+    plan_starts = [sample_sec_vib_start(rng, config) for _ in range(args.plans)]
     with tempfile.TemporaryDirectory() as folder:
         p2_rows, p2_notes, programs2 = bench_problem2(
             config, args.start_list, args.repeats, pathlib.Path(folder)

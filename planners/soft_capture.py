@@ -42,6 +42,7 @@ from pydrake.math import RotationMatrix
 from pydrake.trajectories import PiecewisePolynomial
 
 from rpod.models.collision import ScalingMetricProgram
+from rpod.models.cw import passively_safe_state
 from rpod.models.docking import capture_reach_T
 from rpod.models.frames import rotations_from_wxyz
 from rpod.models.gravity import mean_motion
@@ -603,3 +604,38 @@ def predict_for_planner(
     """
     t_knots = t0_s + np.arange(config.max_knots) * config.dt_s
     return predict_target(q_LT0, w_IT_T0, inertia, t_knots, n_orbit=config.mean_motion)
+
+
+PAPER_TARGET_INERTIA_KG_M2 = np.array(  # paper 000 eq. (27)
+    [[5.89056, 0.0, 0.0], [0.0, 11.4462, 0.233516], [0.0, 0.233516, 11.5365]]
+)
+
+
+def sample_sec_vib_start(
+    rng: np.random.Generator, config: SoftCaptureConfig
+) -> tuple[np.ndarray, TargetPrediction]:
+    """One Sec. VI-B-like start: (x0 (6,) in L, the planner's TargetPrediction).
+
+    The chaser on a passively safe relative orbit (eq. 6) of in-plane amplitude 15-25 m and
+    cross-track 10-25 m at random phases, 15-50 m away; the target of eq. (27) at a uniformly
+    random attitude, tumbling at 0-10 deg/s about a uniformly random axis. The paper's own
+    draw is not printed beyond these ranges; rpod's benchmarks and guard tests use this one.
+    """
+    n = config.mean_motion
+    while True:
+        A0, B0 = rng.uniform(15.0, 25.0), rng.uniform(10.0, 25.0)
+        phase, phase_z = rng.uniform(0.0, 2.0 * np.pi, 2)
+        x0 = passively_safe_state(
+            n,
+            A0 * np.cos(phase),
+            n * A0 * np.sin(phase),
+            B0 * np.cos(phase_z),
+            n * B0 * np.sin(phase_z),
+        )
+        if 15.0 <= np.linalg.norm(x0[:3]) <= 50.0:
+            break
+    q = rng.normal(size=4)
+    q /= np.linalg.norm(q)
+    axis = rng.normal(size=3)
+    w = axis / np.linalg.norm(axis) * np.radians(rng.uniform(0.0, 10.0))
+    return x0, predict_for_planner(config, q, w, PAPER_TARGET_INERTIA_KG_M2)
