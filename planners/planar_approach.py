@@ -108,6 +108,13 @@ theta_approach, T_m = ((theta_approach - theta_t0) sgn(omega) mod 2 pi + 2 pi m)
 [duration_min_s, duration_max_s], the first `max_duration_candidates` of them, solved in
 ascending order; the best (least cost (5)) success is kept.
 
+A plan must reach its goal (rpod's rule, not the paper's): a candidate whose solve converged
+but whose own end point p_N is farther than `goal_tolerance_m` (the mission's 5 cm) from
+p_goal is GOAL_MISSED, with the miss distance in its message. A candidate that reaches the goal
+beats any that misses; when every converged candidate misses, the least-cost one is returned
+with status GOAL_MISSED (its trajectories kept: it is flyable, keep-out feasible, and not a
+success).
+
 A failed solve is a `PlanarPlanStatus` with the solver's own word, never an exception.
 Exceptions are for bad configs (`validate`) and bad arguments.
 """
@@ -229,6 +236,8 @@ class PlanarApproachConfig(PlanarPlannerSettings):
         max_force_N: Force limit per body axis (planar_8 with F_thr = 0.3 N: 2 F_thr = 0.6 N).
         max_torque_Nm: Torque limit (planar_8 with F_thr = 0.3 N, s = 0.3 m: 2 s F_thr).
         dt_s: Largest NLP step (Sec. V's control period, 0.1 s); see the module docstring.
+        goal_tolerance_m: A plan whose end point is farther than this from p_goal is
+            GOAL_MISSED, not a success (the mission's position tolerance, 5 cm).
     """
 
     omega_target_rad_s: float = 0.1
@@ -241,6 +250,7 @@ class PlanarApproachConfig(PlanarPlannerSettings):
     max_force_N: float = 0.6
     max_torque_Nm: float = 0.18
     dt_s: float = 0.1
+    goal_tolerance_m: float = 0.05
 
     def validate(self) -> None:
         """Raises ValueError('field: message') naming the first bad field."""
@@ -253,6 +263,7 @@ class PlanarApproachConfig(PlanarPlannerSettings):
             "max_torque_Nm",
             "w_goal",
             "dt_s",
+            "goal_tolerance_m",
             "duration_max_s",
             "scp_tolerance",
             "nlp_tolerance",
@@ -328,6 +339,7 @@ class PlanarPlanStatus(str, enum.Enum):
     SOLVER_FAILED = "solver_failed"
     SOLVER_UNAVAILABLE = "solver_unavailable"
     NO_CANDIDATE = "no_candidate"
+    GOAL_MISSED = "goal_missed"  # converged, but p_N is beyond goal_tolerance_m of p_goal
 
 
 @dataclasses.dataclass
@@ -397,6 +409,11 @@ class PlanarPlan:
     def success(self) -> bool:
         """True when status is SUCCESS."""
         return self.status == PlanarPlanStatus.SUCCESS
+
+    @property
+    def flyable(self) -> bool:
+        """True when the plan has trajectories: SUCCESS, or GOAL_MISSED (safe but short)."""
+        return self.x_traj is not None
 
     @property
     def terminal_position_error_m(self) -> float:
@@ -1047,6 +1064,14 @@ def _solve_candidate(config, x0, duration_s):
     cost = math.nan
     if X is not None:
         cost = sum(cost_terms(config, X, U, _grid(config, duration_s)[1]).values())
+    if status == PlanarPlanStatus.SUCCESS:
+        miss = float(np.linalg.norm(X[-1, :2] - config.goal_position))
+        if miss > config.goal_tolerance_m:
+            status = PlanarPlanStatus.GOAL_MISSED
+            word = (
+                f"goal missed: the plan ends {miss:.3f} m from the goal (tolerance "
+                f"{config.goal_tolerance_m:g} m); {word}"
+            )
     record = CandidateSolve(duration_s, status, word, elapsed, iterations, cost)
     return record, X, U
 
@@ -1090,7 +1115,7 @@ def plan_approach(config: PlanarApproachConfig, x0) -> PlanarPlan:
             f"target to theta_approach"
         )
         return _empty_plan(config, x0, PlanarPlanStatus.NO_CANDIDATE, word, [])
-    records, best = [], None
+    records, best, missed = [], None, None
     for duration in durations:
         record, X, U = _solve_candidate(config, x0, float(duration))
         records.append(record)
@@ -1098,6 +1123,12 @@ def plan_approach(config: PlanarApproachConfig, x0) -> PlanarPlan:
             best is None or record.cost < best[0].cost
         ):
             best = (record, X, U)
+        if record.status == PlanarPlanStatus.GOAL_MISSED and (
+            missed is None or record.cost < missed[0].cost
+        ):
+            missed = (record, X, U)
+    if best is None:
+        best = missed  # every converged candidate misses the goal: flyable, not a success
     if best is None:
         first = records[0]
         word = "; ".join(f"T = {r.duration_s:.3f} s: {r.solver_message}" for r in records)
@@ -1112,7 +1143,7 @@ def plan_approach(config: PlanarApproachConfig, x0) -> PlanarPlan:
     p_T = np.column_stack([c * X[:, 0] + s * X[:, 1], -s * X[:, 0] + c * X[:, 1]])
     state = config.geometry.state(p_T, pa.face_heading_error(X[:, 2], theta_t)).astype(int)
     return PlanarPlan(
-        status=PlanarPlanStatus.SUCCESS,
+        status=record.status,
         solver_message=record.solver_message,
         duration_s=record.duration_s,
         t_knots=t,

@@ -56,17 +56,20 @@ keeps the plan's path and turns the heading onto the docking face, theta_t + pi,
 half-diagonals' sum plus l_margin), then turns with the face (`face_aligned_reference`); the
 attitude error is then reported against that heading.
 
-Mission (chosen here; the paper states no tolerance): success = the plan is a success AND the
-true shapes never touch during the approach (`separation_m` > 0 at every log sample up to the
-arrival: log at the PWM slot or the control period for a verdict; a contact in the hold after
-it is reported, `planar_contact_after_arrival_s`, and does not undo the approach: the hold
-needs m omega^2 r of centripetal force, `planar_hold_force_ratio` times what the thrusters give
-along an axis) AND at the planned arrival T (the first log sample at or after it) the chaser is
+Mission (chosen here; the paper states no tolerance): success = the plan is a success (its own
+end point within `goal_position_tolerance_m` of the goal: a plan that misses is GOAL_MISSED,
+flown for its figures and never a success) AND the true shapes never touch over the whole run
+(`separation_m` > 0 at every log sample, and the core's ContactWatch, summary["contact"], at
+every integrator step; a contact in the hold after the arrival fails the mission too,
+`planar_contact_after_arrival_s` says when it began: the hold needs m omega^2 r of centripetal
+force, `planar_hold_force_ratio` times what the thrusters give along an axis) AND at the
+planned arrival T (the first log sample at or after it) the chaser is
 within `goal_position_tolerance_m` (5 cm) of the goal x_goal of eq. 5, within
 `goal_attitude_tolerance_deg` (5 deg) of theta_finish (eq. 6) and moves relative to the
 target's docking face (in the target frame, Fig. 7) at most `goal_speed_tolerance_m_s` (0.03
-m/s: the allowable contact velocity the paper cites, Sasaki et al.). A campaign's "success
-share" (`rpod report`) is the share planned and flown without contact (`planar_safe`).
+m/s: the allowable contact velocity the paper cites, Sasaki et al.). A campaign's table
+(`rpod report`) leads with the mission success share (Wilson 95 %), then the safety figures:
+`planar_safe` = the plan reached its goal and the true shapes never touched in the whole run.
 
 Thruster switches (`planar_switches`, OFF -> ON and ON -> OFF of every thruster, from OFF at
 t = 0). Counted from the logged `thruster_on` when the log samples every PWM slot (exact for
@@ -99,6 +102,7 @@ from rpod.diagrams.scenario import (
 from rpod.models import planar_approach as pa
 from rpod.models.frames import rotations_from_wxyz
 from rpod.models.shapes import separation_distance
+from rpod.models.statistics import SuccessShare
 from rpod.models.thrusters import STANDARD_GRAVITY_M_S2
 from rpod.planners import planar_approach as planner
 from rpod.planners.planar_approach import (
@@ -135,6 +139,7 @@ DERIVED_FIELDS = (
     "max_force_N",
     "max_torque_Nm",
     "dt_s",
+    "goal_tolerance_m",
 )
 
 
@@ -263,6 +268,7 @@ def planner_config(scenario) -> PlanarApproachConfig:
         max_force_N=max_force,
         max_torque_Nm=max_torque,
         dt_s=float(config.control_period_s),
+        goal_tolerance_m=float(config.goal_position_tolerance_m),
         **config.planner.planner_fields(),
     )
 
@@ -363,7 +369,7 @@ class PlanarApproachRun:
     @property
     def arrival_s(self) -> float:
         """The planned arrival T (nan without a plan)."""
-        return float(self.plan.duration_s) if self.plan.success else math.nan
+        return float(self.plan.duration_s) if self.plan.flyable else math.nan
 
 
 def plan_scenario(scenario) -> tuple[PlanarApproachConfig, np.ndarray, PlanarPlan, dict | None]:
@@ -372,7 +378,7 @@ def plan_scenario(scenario) -> tuple[PlanarApproachConfig, np.ndarray, PlanarPla
     config = planner_config(scenario)
     x0 = initial_planar_state(scenario)
     plan = plan_approach(config, x0)
-    return config, x0, plan, check_plan(plan, config) if plan.success else None
+    return config, x0, plan, check_plan(plan, config) if plan.flyable else None
 
 
 def make_run(scenario) -> PlanarApproachRun:
@@ -380,7 +386,7 @@ def make_run(scenario) -> PlanarApproachRun:
     config, x0, plan, check = plan_scenario(scenario)
     block = scenario.controller
     feedforward = None
-    if not plan.success:  # hold the start pose, at rest
+    if not plan.flyable:  # hold the start pose, at rest
         hold = np.concatenate([x0[:3], np.zeros(3)])
         reference = PiecewisePolynomial.FirstOrderHold([0.0, 1.0], np.column_stack([hold, hold]))
         return PlanarApproachRun(config, plan, check, reference, None, x0)
@@ -454,7 +460,7 @@ def planar_log(run: PlanarApproachRun, scenario, log: dict) -> dict:
     geometry = config.geometry
     planned = np.full((n, 6), np.nan)
     heading = np.full(n, np.nan)  # the tracked heading: the plan's, or turned to the face
-    if plan.success:
+    if plan.flyable:
         within = t <= plan.duration_s + 1e-9
         planned[within] = plan.x_traj.vector_values(t[within]).T
         heading[within] = run.reference.vector_values(t[within])[2]
@@ -494,7 +500,7 @@ def plan_separation(run: PlanarApproachRun, scenario) -> tuple[float, float | No
     or None), at the plan's knots, the target turning as the planner predicts it: whether a
     contact of the flown run was already in the plan. Exact: bounding spheres skip only the
     knots that cannot be nearer than the least exact separation found."""
-    if not run.plan.success:
+    if not run.plan.flyable:
         return math.nan, None
     chaser_shape, target_shape = body_polytopes(scenario)
     reach = sum(float(np.max(np.linalg.norm(s.vertices, axis=1))) for s in body_polytopes(scenario))
@@ -535,14 +541,17 @@ def planar_summary(run: PlanarApproachRun, scenario, log: dict, extra: dict) -> 
     config, plan, block = run.config, run.plan, scenario.controller
     t = np.asarray(log["t"], float)
     # The approach: up to the arrival sample (the whole run without a plan); after it, the hold.
-    end = _arrival_index(t, plan.duration_s) if plan.success else len(t) - 1
+    # Contact counts over the whole run (the core's ContactWatch, summary["contact"]);
+    # planar_contact_after_arrival_s says when a contact began in the hold.
+    end = _arrival_index(t, plan.duration_s) if plan.flyable else len(t) - 1
     touching = np.flatnonzero(~(np.asarray(log["separation_m"], float) > 0.0))
-    contact = bool(len(touching) and touching[0] <= end)
+    contact = bool(len(touching))
     after = touching[touching > end]
     q = extra["planar_keepout_q_m"][: end + 1]
     summary = {
         "planar_plan_status": plan.status.value,
         "planar_plan_success": bool(plan.success),
+        "planar_plan_flown": bool(plan.flyable),
         "planar_plan_message": plan.solver_message,
         "planar_plan_duration_s": _finite(plan.duration_s),
         "planar_plan_cost": _finite(plan.cost),
@@ -573,7 +582,7 @@ def planar_summary(run: PlanarApproachRun, scenario, log: dict, extra: dict) -> 
         "planar_keepout_intrusion_s": float(np.sum(np.diff(t, append=t[-1])[: end + 1][q < 0.0])),
         "planar_contact_after_arrival_s": float(t[after[0]]) if len(after) else None,
         "planar_switches": switch_count(log, scenario, block.control_period_s),
-        "planar_safe": bool(plan.success and not contact),
+        "planar_safe": bool(plan.success and not contact),  # whole run, goal reached by plan
     }
     plan_separation_m, plan_contact_s = plan_separation(run, scenario)
     summary["planar_plan_min_separation_m"] = _finite(plan_separation_m)
@@ -599,7 +608,7 @@ def planar_summary(run: PlanarApproachRun, scenario, log: dict, extra: dict) -> 
         planar_hold_force_ratio=None,
         planar_goal_reached=False,
     )
-    if not plan.success:
+    if not plan.flyable:
         return summary
     T = float(plan.duration_s)
     i = _arrival_index(t, T)
@@ -656,11 +665,11 @@ def planar_summary(run: PlanarApproachRun, scenario, log: dict, extra: dict) -> 
 
 def outcome(summary: dict, block: PlanarApproach) -> MissionOutcome:
     """The mission verdict and its one line (module docstring)."""
-    if not summary["planar_plan_success"]:
+    if not summary.get("planar_plan_flown", summary["planar_plan_success"]):
         return MissionOutcome(
             False,
-            f"NOT flown: plan {summary['planar_plan_status']}: {summary['planar_plan_message']}; "
-            "held the start pose",
+            f"NOT a success, NOT flown: plan {summary['planar_plan_status']}: "
+            f"{summary['planar_plan_message']}; held the start pose",
         )
     rms = summary["planar_rms_tracking_error_m"]
     terminal = (
@@ -682,6 +691,9 @@ def outcome(summary: dict, block: PlanarApproach) -> MissionOutcome:
             f"; contact after the arrival at {later:.2f} s (the co-rotating hold needs "
             f"{summary['planar_hold_force_ratio']:.2g}x the thrusters' force)"
         )
+    missed = ""
+    if not summary["planar_plan_success"]:  # flown, but the plan itself misses its goal
+        missed = f"the plan missed its goal ({summary['planar_plan_message']}); "
     if summary["planar_contact"]:
         planned = summary["planar_plan_contact_s"]
         where = (
@@ -691,17 +703,18 @@ def outcome(summary: dict, block: PlanarApproach) -> MissionOutcome:
         )
         return MissionOutcome(
             False,
-            f"CONTACT at {summary['planar_first_contact_s']:.2f} s (true shapes touched{where}); "
-            f"{terminal}; {tail}",
+            f"NOT a success: contact at {summary['planar_first_contact_s']:.2f} s (true shapes "
+            f"touched{where}); {missed}{terminal}; {tail}",
         )
-    if not summary["planar_goal_reached"]:
+    if missed or not summary["planar_goal_reached"]:
+        reached = "reached" if summary["planar_goal_reached"] else "NOT reached"
         return MissionOutcome(
             False,
-            f"goal NOT reached {terminal} (tolerances {block.goal_position_tolerance_m:g} m, "
-            f"{block.goal_speed_tolerance_m_s:g} m/s, {block.goal_attitude_tolerance_deg:g} "
-            f"deg); no contact; {tail}",
+            f"NOT a success: {missed}goal {reached} {terminal} (tolerances "
+            f"{block.goal_position_tolerance_m:g} m, {block.goal_speed_tolerance_m_s:g} m/s, "
+            f"{block.goal_attitude_tolerance_deg:g} deg); no contact in the run; {tail}",
         )
-    return MissionOutcome(True, f"approached, no contact, {terminal}; {tail}")
+    return MissionOutcome(True, f"approached, no contact in the run, {terminal}; {tail}")
 
 
 # ------------------------------------------------------------------------------ campaigns
@@ -736,6 +749,9 @@ def _share(flags) -> str:
 def campaign_rows(rows: list[dict]) -> tuple[str, list[str], list[list[str]]] | None:
     """The `rpod report` table of a planar-approach campaign (rows of the store), or None.
 
+    The title leads with the mission success share of the ok runs (Wilson 95 %), then the
+    safety figures (planned to the goal and no contact in the whole run; contact), and names
+    the formulation: rpod's terminal-velocity term (5') and the State II heading condition.
     Varying modulation: one line per scheme (tracking error, terminal speed, fuel, switches).
     Else varying theta_approach (Case Study 2, Fig. 9): one line per theta; else varying
     omega_target (Case Study 1, Fig. 8): one line per omega. Each line: runs, planned
@@ -745,6 +761,18 @@ def campaign_rows(rows: list[dict]) -> tuple[str, list[str], list[list[str]]] | 
     metrics = _metric_rows(rows)
     if not metrics:
         return None
+    mission = SuccessShare(
+        sum((m.get("mission") or {}).get("success") is True for m in metrics), len(metrics)
+    )
+    safe_share = SuccessShare(sum(bool(m.get("planar_safe")) for m in metrics), len(metrics))
+    contact_share = SuccessShare(sum(bool(m.get("planar_contact")) for m in metrics), len(metrics))
+    lead = (
+        f"mission success {mission.percent_text()} of the ok runs; safe (plan reached its goal, "
+        f"no contact in the whole run) {safe_share.percent_text()}; contact "
+        f"{contact_share.percent_text()}. Formulation: rpod's, with the terminal-velocity term "
+        f"(5') and the State II heading condition (not the paper's eq. 5 and position-only "
+        f"switch)"
+    )
     schemes = sorted({m["planar_modulation"] for m in metrics})
     if len(schemes) > 1:
         header = ["modulation", "runs", "RMS tracking cm", "terminal m/s", "delta-v m/s"]
@@ -771,7 +799,9 @@ def campaign_rows(rows: list[dict]) -> tuple[str, list[str], list[list[str]]] | 
                     _share([(m.get("mission") or {}).get("success") is True for m in group]),
                 ]
             )
-        title = "Paper 003's approach flown with each modulation scheme (beyond the paper):"
+        title = (
+            f"Paper 003's approach flown with each modulation scheme (beyond the paper): {lead}:"
+        )
         return title, header, table
     thetas = sorted({round(m["planar_theta_approach_deg"], 6) for m in metrics})
     key, label = (
@@ -780,8 +810,8 @@ def campaign_rows(rows: list[dict]) -> tuple[str, list[str], list[list[str]]] | 
         else ("planar_omega_target_rad_s", "omega_target rad/s")
     )
     values = sorted({round(m[key], 6) for m in metrics})
-    header = [label, "runs", "planned", "planned final error m (mean +- std)"]
-    header += ["flown RMS tracking m", "safe", "mission"]
+    header = [label, "runs", "mission", "safe", "planned to the goal"]
+    header += ["planned final error m (mean +- std)", "flown RMS tracking m"]
     table = []
     for value in values:
         group = [m for m in metrics if round(m[key], 6) == value]
@@ -789,19 +819,15 @@ def campaign_rows(rows: list[dict]) -> tuple[str, list[str], list[list[str]]] | 
             [
                 f"{value:g}",
                 str(len(group)),
+                _share([(m.get("mission") or {}).get("success") is True for m in group]),
+                _share([m["planar_safe"] for m in group]),
                 _share([m["planar_plan_success"] for m in group]),
                 _mean_std([m["planar_plan_terminal_position_error_m"] for m in group]),
                 _mean_std([m["planar_rms_tracking_error_m"] for m in group]),
-                _share([m["planar_safe"] for m in group]),
-                _share([(m.get("mission") or {}).get("success") is True for m in group]),
             ]
         )
-    safe = _share([m["planar_safe"] for m in metrics])
     case = "2 (Fig. 9)" if len(thetas) > 1 else "1 (Fig. 8)"
-    title = (
-        f"Paper 003 Case Study {case} beside this campaign: success share (planned and flown "
-        f"without contact) {safe} of the ok runs:"
-    )
+    title = f"Paper 003 Case Study {case} beside this campaign: {lead}:"
     return title, header, table
 
 
@@ -890,7 +916,7 @@ class PlanarApproachPlugin(ControllerPlugin):
     def planned_end_s(self, wiring, context) -> float | None:
         """The planned arrival T; 0 without a plan (the start pose is held from t = 0)."""
         run = wiring.system.planar_run
-        return run.arrival_s if run.plan.success else 0.0
+        return run.arrival_s if run.plan.flyable else 0.0
 
     def add_scene_extras(self, builder, meshcat, scenario, wiring, scene=None) -> None:
         """The keep-out zone on the target frame, State I or II as the chaser's state says, and
@@ -898,7 +924,7 @@ class PlanarApproachPlugin(ControllerPlugin):
         from rpod.systems.planar_scene import add_planar_scene  # only when drawing
 
         run = wiring.system.planar_run
-        path = run.plan.x_knots[:, :2] if run.plan.success else np.zeros((0, 2))
+        path = run.plan.x_knots[:, :2] if run.plan.flyable else np.zeros((0, 2))
         add_planar_scene(
             builder,
             meshcat,

@@ -7,6 +7,9 @@ The short flights: the bundled scenario with the target at 0.2 rad/s and the cha
 
 import dataclasses
 import math
+import pathlib
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -21,12 +24,13 @@ from rpod.diagrams.controllers.planar_approach import (
     face_aligned_reference,
     initial_planar_state,
     make_run,
+    plan_scenario,
     planner_config,
 )
 from rpod.diagrams.scenario import ScenarioError, validate_scenario
 from rpod.diagrams.simulate import simulate
 from rpod.models import planar_approach as pa
-from rpod.planners.planar_approach import PlanarApproachConfig
+from rpod.planners.planar_approach import PlanarApproachConfig, PlanarPlanStatus
 from rpod.scenarios.campaign import apply_overrides, load_campaign, plan_runs
 from rpod.scenarios.loader import load_scenario
 
@@ -198,7 +202,7 @@ def test_a_failed_plan_is_a_status_and_the_run_goes_on():
     assert summary["sim_time_s"] == pytest.approx(2.0)  # the plan "ends" at 0, plus hold_s
     np.testing.assert_allclose(log["p_LC_L"][-1], [0.7, 0.0, 0.0], atol=1e-9)  # held
     assert summary["mission"]["success"] is False
-    assert summary["mission"]["outcome"].startswith("NOT flown: plan infeasible")
+    assert summary["mission"]["outcome"].startswith("NOT a success, NOT flown: plan infeasible")
     assert summary["planar_rms_tracking_error_m"] is None
 
 
@@ -250,7 +254,11 @@ def test_campaign_tables():
     assert table[0][2] == "0.4"  # cm, one run
     grid = [_row(base, planar_omega_target_rad_s=w, planar_safe=w < 1.0) for w in (0.5, 0.5, 1.5)]
     title, header, table = campaign_rows(grid + [{"status": "failed", "metrics": None}])
-    assert "Case Study 1" in title and "67% (2/3)" in title
+    assert "Case Study 1" in title and title.startswith(
+        "Paper 003 Case Study 1 (Fig. 8) beside this campaign: mission success 100.0 % (3/3"
+    )
+    assert "no contact in the whole run) 66.7 % (2/3" in title
+    assert "(5')" in title and "State II heading condition" in title
     assert [line[0] for line in table] == ["0.5", "1.5"]
     thetas = [_row(base, planar_theta_approach_deg=a) for a in (0.0, 180.0)]
     assert "Case Study 2" in campaign_rows(thetas)[0]
@@ -288,3 +296,65 @@ def test_sec_va_is_flown_without_contact_to_the_goal():
     assert summary["planar_rms_tracking_error_m"] < 0.02
     assert summary["planar_final_relative_speed_m_s"] < 0.01
     assert summary["planar_terminal_relative_speed_m_s"] < 0.03  # the paper's ~0.03 m/s
+
+
+# Issue 19's reproduction: an unseen Case Study 1-like start whose plan ends 0.054 m from its
+# goal (measured) and whose squares overlap in the co-rotating hold from 20.37 s (221 mm deep).
+MISSES = {
+    "target.w_IT_T_deg_s": [0.0, 0.0, 45.155163],
+    "controller.planner.theta_approach_deg": 198.597522,
+    "thrusters.max_thrust_N": 0.429309,
+    "chaser.p_LC_L": [-0.801452, -0.192196, 0.0],
+}
+
+
+def test_a_plan_that_misses_its_goal_is_goal_missed_not_success():
+    """The planner's own end point beyond goal_tolerance_m (the mission's 5 cm) is GOAL_MISSED
+    with the miss distance; the plan keeps its trajectories (flown, never a success)."""
+    config, _, plan, check = plan_scenario(_scenario(**MISSES))
+    assert config.goal_tolerance_m == 0.05  # from controller.goal_position_tolerance_m
+    assert plan.status == PlanarPlanStatus.GOAL_MISSED and not plan.success
+    assert plan.flyable and check is not None
+    miss = plan.terminal_position_error_m
+    assert miss > 0.05
+    assert f"the plan ends {miss:.3f} m from the goal (tolerance 0.05 m)" in plan.solver_message
+    # With a looser tolerance the same plan is a success: the status is the tolerance's.
+    looser = _scenario(**MISSES, **{"controller.goal_position_tolerance_m": 0.2})
+    assert plan_scenario(looser)[2].status == PlanarPlanStatus.SUCCESS
+
+
+def test_issue_19_reproduction_says_contact_and_not_a_success():
+    """`rpod run` of the reproduction: contact over the whole run (the hold after arrival
+    included) leads the line, the plug-in says NOT a success and no "no contact", exit 3."""
+    sets = [
+        "target.w_IT_T_deg_s=[0, 0, 45.155163]",
+        "controller.planner.theta_approach_deg=198.597522",
+        "thrusters.max_thrust_N=0.429309",
+        "chaser.p_LC_L=[-0.801452, -0.192196, 0]",
+    ]
+    command = [sys.executable, "-m", "rpod.scenarios.cli", "run", "planar_approach"]
+    command += ["--no-record", "--overwrite", "--out", str(_tmp_out())]
+    for item in sets:
+        command += ["--set", item]
+    done = subprocess.run(command, check=False, capture_output=True, text=True, timeout=300)
+    line = done.stdout.strip().splitlines()[-1]
+    assert done.returncode == 3, done.stdout + done.stderr
+    assert line.startswith("planar_approach: CONTACT of the true shapes from 20.37"), line
+    assert "NOT a success: contact at 20.37 s" in line and "the plan missed its goal" in line
+    assert "no contact" not in line
+
+
+def _tmp_out():
+    import tempfile
+
+    return pathlib.Path(tempfile.mkdtemp(prefix="planar_repro_")) / "run"
+
+
+def test_contact_in_the_hold_is_contact_of_the_run():
+    """The summary's planar_contact and planar_safe count the whole run, as the core does."""
+    result = simulate(_scenario(**MISSES))
+    summary = result.summary
+    assert summary["contact"]["occurred"] is True
+    assert summary["planar_contact"] is True and summary["planar_safe"] is False
+    assert summary["planar_contact_after_arrival_s"] == pytest.approx(20.37, abs=0.01)
+    assert summary["mission"]["success"] is False
