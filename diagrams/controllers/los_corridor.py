@@ -242,11 +242,12 @@ class LosCorridorPlugin(ControllerPlugin):
             "los_mpc_solve_ms_max": float(1e3 * np.max(log["los_mpc_solve_time_s"][steps])),
         }
         success = depth == 0.0 and held
+        solver = _solver_text(summary)
         if success:
             text = (
                 f"held at {config.hold_distance_m:g} m on the corridor axis from "
                 f"{summary['los_hold_reached_s']:.0f} s, zero corridor violations (least margin "
-                f"{min_distance:.2f} m), {on_fallback} steps on a fallback"
+                f"{min_distance:.2f} m); {solver}"
             )
         else:
             parts = []
@@ -256,7 +257,7 @@ class LosCorridorPlugin(ControllerPlugin):
                 )
             if not held:
                 parts.append(f"not holding at the end ({hold_distance:.1f} m from the hold point)")
-            text = "; ".join(parts) + f"; {on_fallback} steps on a fallback"
+            text = "NOT a success: " + "; ".join(parts) + f"; {solver}"
         return ControllerResults(summary=summary, outcome=MissionOutcome(success, text))
 
 
@@ -278,6 +279,19 @@ PAPER_TABLE_3 = {
     (5, 0.05): (13.1, "No", 63.9),
     (5, 0.02): (5.3, "No", 51.1),
 }
+
+
+def _solver_text(summary: dict) -> str:
+    """How the filter fared: unsolved QPs and the steps each fallback flew (README promise)."""
+    text = f"{summary['los_qp_not_solved']} QPs not solved, {summary['los_fallback_steps']} steps on a fallback"
+    if summary["los_fallback_steps"]:
+        kinds = [
+            ("previous plan", summary["los_fallback_previous_plan"]),
+            ("brake", summary["los_fallback_brake"]),
+            ("far command", summary["los_fallback_far_command"]),
+        ]
+        text += " (" + ", ".join(f"{name} {count}" for name, count in kinds if count) + ")"
+    return text
 
 
 def _start_outcome(metrics: dict | None) -> str:

@@ -102,6 +102,13 @@ def test_outside_r_sync_reports_the_violation_and_finishes(outside):
     assert summary["los_violation_depth_m"] == pytest.approx(depth, rel=1e-9)
     assert summary["los_violation_duration_s"] > 0
     assert "corridor violated" in process.stdout and "deep for" in process.stdout
+    # The line says it failed, and how the filter fared (issue 19: it said neither).
+    line = process.stdout.strip().splitlines()[-1]
+    assert ": NOT a success: corridor violated" in line
+    assert f"{summary['los_qp_not_solved']} QPs not solved" in line
+    assert f"{summary['los_fallback_steps']} steps on a fallback" in line
+    if summary["los_fallback_far_command"]:
+        assert f"far command {summary['los_fallback_far_command']}" in line
 
 
 @pytest.mark.parametrize("scenario", ["los_corridor_thrusters", "los_corridor_3d"])
