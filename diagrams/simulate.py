@@ -131,7 +131,7 @@ class _StepMonitor:
         self.contact = contact
         self._scene = scene_driver
         self._progress = progress
-        self._end_s = end_s
+        self.end_s = end_s
         self._next_progress_wall = time.perf_counter() + PROGRESS_PERIOD_S
 
     def __call__(self, root_context) -> EventStatus:
@@ -139,7 +139,7 @@ class _StepMonitor:
         if self._scene is not None:
             self._scene.observe(root_context)
         if self._progress is not None and time.perf_counter() >= self._next_progress_wall:
-            self._progress(root_context.get_time(), self._end_s)
+            self._progress(root_context.get_time(), self.end_s)
             self._next_progress_wall = time.perf_counter() + PROGRESS_PERIOD_S
         return EventStatus.Succeeded()
 
@@ -215,7 +215,7 @@ def simulate(scenario: Scenario, meshcat=None, progress=None) -> SimulationResul
     try:
         simulator.Initialize()
         end_s = _end_time_s(scenario, handles, simulator.get_context(), warnings)
-        step_monitor._end_s = end_s
+        step_monitor.end_s = end_s  # known once Initialize has planned
         returned = simulator.AdvanceTo(end_s)
         if returned.reason() == SimulatorStatus.ReturnReason.kReachedTerminationCondition:
             stopped = returned.message()  # a system ended the run on purpose: its words
