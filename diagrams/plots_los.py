@@ -19,7 +19,8 @@ Log keys (N samples, time first; any may be missing; in L unless named otherwise
   los_regime (N)               0 far approach, 1 close approach, 2 hold (Sec. 7).
   los_mpc_status (N)           0 solved, 1 solved inaccurate, 2 primal infeasible, 3 dual
                                infeasible, 4 max iterations, 5 other, -1 not solved yet.
-  los_fallback (N)             0 MPC input applied, 1 shifted previous plan, 2 brake.
+  los_fallback (N)             0 MPC input applied, 1 shifted previous plan, 2 brake, 3 the
+                               far approach's own command (rpod.systems.los_guidance.Fallback).
   los_a_max_m_s2 (N)           the input bound a_max (eq. 11e) [m/s^2].
   los_half_angle_deg (N)       the corridor half-angle alpha_c [deg].
 
@@ -103,6 +104,7 @@ _FALLBACK = {
     0: ("MPC u_0 applied", "#cfe8cf"),
     1: ("shifted previous plan", "tab:orange"),
     2: ("brake", "tab:red"),
+    3: ("far-approach command", "tab:blue"),  # Fallback.NOMINAL: no braking far out
 }
 _LEGEND_OUTSIDE = {  # right of the panel: the time axis stays clear
     "loc": "upper left",

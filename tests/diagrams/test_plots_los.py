@@ -216,3 +216,20 @@ def test_runs_and_floor_hand_cases():
     faces[2, 8] = 7.0
     assert _floor_y(p, faces) == pytest.approx(1.5)
     assert _floor_y(p, None) is None
+
+
+def test_every_fallback_the_guidance_logs_has_a_colour_and_a_legend_entry():
+    """The far approach's own command (Fallback.NOMINAL) was drawn with no colour or legend."""
+    from matplotlib.figure import Figure
+
+    from rpod.diagrams.plots import _Log
+    from rpod.systems.los_guidance import Fallback
+
+    assert set(plots_los._FALLBACK) == {int(f) for f in Fallback}
+    log = _los_log()
+    log["los_fallback"] = np.repeat([3, 0, 1, 2], len(log["t"]) // 4 + 1)[: len(log["t"])]
+    ax = Figure().add_subplot()
+    edges = np.r_[log["t"], log["t"][-1] + 0.5]
+    plots_los._panel_status(ax, _Log(log), edges)
+    labels = " ".join(text.get_text() for text in ax.get_legend().get_texts())
+    assert "far-approach command" in labels and "brake" in labels
