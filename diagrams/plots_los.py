@@ -20,7 +20,8 @@ Log keys (N samples, time first; any may be missing; in L unless named otherwise
   los_mpc_status (N)           0 solved, 1 solved inaccurate, 2 primal infeasible, 3 dual
                                infeasible, 4 max iterations, 5 other, -1 not solved yet.
   los_fallback (N)             0 MPC input applied, 1 shifted previous plan, 2 brake, 3 the
-                               far approach's own command (rpod.systems.los_guidance.Fallback).
+                               far approach's own command, 4 the best-effort QP's input
+                               (rpod.systems.los_guidance.Fallback).
   los_a_max_m_s2 (N)           the input bound a_max (eq. 11e) [m/s^2].
   los_half_angle_deg (N)       the corridor half-angle alpha_c [deg].
 
@@ -105,6 +106,7 @@ _FALLBACK = {
     1: ("shifted previous plan", "tab:orange"),
     2: ("brake", "tab:red"),
     3: ("far-approach command", "tab:blue"),  # Fallback.NOMINAL: no braking far out
+    4: ("best-effort QP (soft corridor)", "gold"),  # Fallback.BEST_EFFORT
 }
 _LEGEND_OUTSIDE = {  # right of the panel: the time axis stays clear
     "loc": "upper left",

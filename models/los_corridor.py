@@ -82,6 +82,27 @@ def sync_range_m(a_max_m_s2: float, omega_t_rad_s: float) -> float:
     return 2.0 * a_max_m_s2 / omega_t_rad_s**2
 
 
+def holding_range_m(a_max_m_s2: float, omega_t_rad_s: float) -> float:
+    """r_hold = a_max / omega_t^2 = r_sync / 2: the farthest range at which a chaser at rest in
+    the tumbling frame can stay there. Holding a point at rest in T takes the centripetal
+    acceleration omega_t^2 r (the point turns on a circle of radius r), and the box supplies at
+    most a_max; so a hold point beyond r_hold cannot be held, and a start at rest between r_hold
+    and r_sync can be braked (eq. 14) but not kept where it is. r_sync is necessary for the
+    approach; r_hold is what a hold needs."""
+    return 0.5 * sync_range_m(a_max_m_s2, omega_t_rad_s)
+
+
+# The share of the box a suggested hold point leaves to the centripetal acceleration: half,
+# the rest for control (r = r_sync / 4, as the Table 3 campaign holds).
+HOLD_MARGIN = 0.5
+
+
+def suggested_hold_distance_m(a_max_m_s2: float, omega_t_rad_s: float) -> float:
+    """The range at which holding at rest in T takes HOLD_MARGIN of the box: r_hold HOLD_MARGIN
+    = r_sync / 4 [m]."""
+    return HOLD_MARGIN * holding_range_m(a_max_m_s2, omega_t_rad_s)
+
+
 def body_relative_state(R_IT, w_IT_T, p_IC_I, v_IC_I, p_IT_I, v_IT_I):
     """(p_TC_T, v_TC_T): the chaser relative to the tumbling target, in and seen from T.
 

@@ -34,6 +34,17 @@ and OSQP keeps its factorisation's symbolic part. Each step then updates q, l, u
 from the previous primal and dual solution shifted one step along the horizon (the receding
 horizon's own guess; `shift_warm_start`), which cut the p99 per step by ~20% against OSQP's
 unshifted warm start (benchmarks/results/los_corridor_mpc.md).
+
+The best-effort QP (`soft=True`; rpod's, not the paper's). When the QP above is infeasible (a
+chaser that cannot be kept inside from where it is) a hard-constrained MPC has no input at all,
+and whatever the controller flies instead ignores the corridor. The same QP with 11d softened,
+
+    A_c [x_j]_{1:3} <= b_c,j + |A_c,i| s_j,   s_j >= 0,   cost + sum_j (rho s_j + s_j^2),
+
+always has a solution (s_j is how far outside the corridor step j's plan may go [m]) and, with
+rho above the corridor's multipliers, is an exact penalty: where the hard QP is feasible its
+optimum is the hard one's (s = 0; tested), and where it is not, the input keeps the predicted
+excursion as small as the box allows. rho is `LosMpcSettings.corridor_penalty`.
 """
 
 import dataclasses
@@ -101,6 +112,9 @@ class LosMpcSettings:
             max(0, 1 - (j / R)^2): a funnel back inside within R steps, quadratic as the path
             of a chaser that starts from rest at a bounded acceleration (a linear one asks for
             a speed at j = 1 that the box cannot give) (0: the paper's hard 11d).
+        corridor_penalty: rho of the best-effort QP (module docstring), per metre outside the
+            corridor per predicted step; 0: no best-effort QP (what a failed hard QP flies is
+            then the fallback chain alone, as the paper does).
     """
 
     horizon: int = 40
@@ -117,6 +131,7 @@ class LosMpcSettings:
     polishing: bool = False
     margin_m: float = 0.1
     recovery_steps: int = 10
+    corridor_penalty: float = 1e5
 
     def validate(self) -> None:
         """Raises ValueError('field: message') naming the first bad field."""
@@ -130,6 +145,8 @@ class LosMpcSettings:
             raise ValueError(f"margin_m: must not be negative, got {self.margin_m}")
         if int(self.recovery_steps) != self.recovery_steps or self.recovery_steps < 0:
             raise ValueError(f"recovery_steps: must be an integer >= 0, got {self.recovery_steps}")
+        if not (np.isfinite(self.corridor_penalty) and self.corridor_penalty >= 0):
+            raise ValueError(f"corridor_penalty: must not be negative, got {self.corridor_penalty}")
         if not np.all(np.asarray(self.R_u_diag) + np.asarray(self.R_du_diag) > 0):
             raise ValueError("R_u_diag: R_u + R_du must be positive definite")
         for name in ("terminal_factor", "a_max_m_s2", "eps_abs", "eps_rel", "check_tolerance_m"):
@@ -148,7 +165,10 @@ class MpcResult:
         iterations: OSQP's ADMM iterations.
         solve_time_s: wall time of the update, the solve and the check [s].
         checked: an unfinished iterate passed the rollout check (LosMpcSettings); its x is
-            the rollout, its u the clipped inputs.
+            the rollout, its u the clipped inputs. On the best-effort QP every finite iterate
+            passes (its inputs clipped to the box: it promises no corridor).
+        excess_m: the best-effort QP's largest planned s_j, how far outside the corridor its
+            plan goes at worst [m] (0 on the hard QP).
     """
 
     status: MpcStatus
@@ -158,6 +178,7 @@ class MpcResult:
     iterations: int
     solve_time_s: float
     checked: bool = False
+    excess_m: float = 0.0
 
     @property
     def solved(self) -> bool:
@@ -168,21 +189,28 @@ class MpcResult:
 class LosCorridorMpc:
     """The persistent QP of eq. 11 (module docstring)."""
 
-    def __init__(self, settings: LosMpcSettings, A_c: np.ndarray, b_c: np.ndarray):
+    def __init__(
+        self, settings: LosMpcSettings, A_c: np.ndarray, b_c: np.ndarray, soft: bool = False
+    ):
         """Builds and sets up the QP once (A_d = I, B_d = 0 until the first `solve`).
 
         Args:
             settings: the MPC's settings (validated here).
             A_c, b_c: the corridor's half-spaces on the position, A_c p <= b_c (eq. 9).
+            soft: the best-effort QP (module docstring), with settings.corridor_penalty.
         """
         settings.validate()
+        if soft and not settings.corridor_penalty > 0:
+            raise ValueError("corridor_penalty: the best-effort QP needs a positive penalty")
         self.settings = settings
+        self.soft = soft
         N = self.N = int(settings.horizon)
         self._A_c = np.asarray(A_c, dtype=float)
         self._b_c = np.asarray(b_c, dtype=float)
         nx, nu, nc = 6, 3, len(self._b_c)
-        self._nz = nx * (N + 1) + nu * N
         self._u_offset = nx * (N + 1)
+        self._s_offset = self._u_offset + nu * N  # slacks s_0..s_N (soft only) after the inputs
+        self._nz = self._s_offset + (N + 1 if soft else 0)
 
         # Cost: P constant (x_ref and u_{-1} enter q only).
         Q = np.diag(np.asarray(settings.Q_diag, dtype=float))
@@ -193,7 +221,8 @@ class LosCorridorMpc:
         R_du_blk = sp.kron(sp.eye(N), self._R_du)
         D_blk = sp.kron(D, sp.eye(nu))
         P_u = sp.kron(sp.eye(N), R_u) + D_blk.T @ R_du_blk @ D_blk
-        self._P = sp.triu(2.0 * sp.block_diag([P_x, P_u]), format="csc")
+        P_s = sp.eye(N + 1) if soft else sp.csc_matrix((0, 0))  # the s_j^2 term
+        self._P = sp.triu(2.0 * sp.block_diag([P_x, P_u, P_s]), format="csc")
         self._Q = Q
         self._R_u = R_u
         self._Q_N = settings.terminal_factor * Q
@@ -223,18 +252,24 @@ class LosCorridorMpc:
                     add(r0 + i, self._u_offset + nu * j + k, 0.0, len(self._dynamics_slots))
                     self._dynamics_slots.append((j, "B", i, k))
         r_corr = nx + nx * N
+        self._row_norms = np.linalg.norm(self._A_c, axis=1)
         for j in range(N + 1):
             for i in range(nc):
                 for k in range(3):
                     if self._A_c[i, k] != 0.0:
                         add(r_corr + nc * j + i, nx * j + k, self._A_c[i, k])
+                if soft:  # - |A_c,i| s_j: the face moved out by s_j metres
+                    add(r_corr + nc * j + i, self._s_offset + j, -self._row_norms[i])
         r_u = r_corr + nc * (N + 1)
         self._corridor_rows = slice(r_corr, r_u)
-        self._row_norms = np.linalg.norm(self._A_c, axis=1)
         for j in range(N):
             for k in range(nu):
                 add(r_u + nu * j + k, self._u_offset + nu * j + k, 1.0)
         m = r_u + nu * N
+        if soft:  # s_j >= 0
+            for j in range(N + 1):
+                add(m + j, self._s_offset + j, 1.0)
+            m += N + 1
         # CSC with explicit zeros kept: build from ids, read the slot order, then the values.
         tags = sp.csc_matrix(
             (np.arange(len(values), dtype=float) + 1.0, (rows, cols)), shape=(m, self._nz)
@@ -260,8 +295,13 @@ class LosCorridorMpc:
         self._nc = nc
         a_max = settings.a_max_m_s2
         x_rows = np.zeros(nx * (N + 1))
-        self._l = np.concatenate([x_rows, np.full(nc * (N + 1), -np.inf), np.full(nu * N, -a_max)])
-        self._u = np.concatenate([x_rows, np.tile(self._b_c, N + 1), np.full(nu * N, a_max)])
+        s_rows = np.zeros(N + 1 if soft else 0)
+        self._l = np.concatenate(
+            [x_rows, np.full(nc * (N + 1), -np.inf), np.full(nu * N, -a_max), s_rows]
+        )
+        self._u = np.concatenate(
+            [x_rows, np.tile(self._b_c, N + 1), np.full(nu * N, a_max), s_rows + np.inf]
+        )
         self._solver = osqp.OSQP()
         self._solver.setup(
             P=self._P,
@@ -326,8 +366,11 @@ class LosCorridorMpc:
         q[: 6 * self.N] = np.tile(-2.0 * self._Q @ x_ref, self.N)
         q[6 * self.N : self._u_offset] = -2.0 * self._Q_N @ x_ref
         if u_nom is not None:
-            q[self._u_offset :] = np.tile(-2.0 * self._R_u @ np.asarray(u_nom, float), self.N)
+            q[self._u_offset : self._s_offset] = np.tile(
+                -2.0 * self._R_u @ np.asarray(u_nom, float), self.N
+            )
         q[self._u_offset : self._u_offset + 3] -= 2.0 * self._R_du @ np.asarray(u_prev, float)
+        q[self._s_offset :] = self.settings.corridor_penalty  # the exact penalty's rho s_j
         return q
 
     @staticmethod
@@ -340,15 +383,20 @@ class LosCorridorMpc:
         z = self._last_solution[0].copy()
         self._shift(z, 0, 6, self.N + 1)
         self._shift(z, self._u_offset, 3, self.N)
+        if self.soft:
+            self._shift(z, self._s_offset, 1, self.N + 1)
         return z
 
     def _shifted_dual(self) -> np.ndarray:
-        """Rows: x_0 (6), dynamics (6 N), corridor (nc (N + 1)), inputs (3 N)."""
+        """Rows: x_0 (6), dynamics (6 N), corridor (nc (N + 1)), inputs (3 N), then the
+        slacks' (N + 1, soft only)."""
         y = self._last_solution[1].copy()
         N, nc = self.N, self._nc
         self._shift(y, 6, 6, N)
         self._shift(y, 6 + 6 * N, nc, N + 1)
         self._shift(y, 6 + 6 * N + nc * (N + 1), 3, N)
+        if self.soft:
+            self._shift(y, 6 + 6 * N + nc * (N + 1) + 3 * N, 1, N + 1)
         return y
 
     def solve(self, x_k, x_ref, u_prev, A_d, B_d, u_nom=None) -> MpcResult:
@@ -382,7 +430,9 @@ class LosCorridorMpc:
         checked = False
         if status is MpcStatus.SOLVED:
             x = z[: self._u_offset].reshape(self.N + 1, 6)
-            u_all = z[self._u_offset :].reshape(self.N, 3)
+            u_all = z[self._u_offset : self._s_offset].reshape(self.N, 3)
+            if self.soft:  # OSQP's box is met to its tolerance; the best effort's exactly
+                u_all = np.clip(u_all, -self.settings.a_max_m_s2, self.settings.a_max_m_s2)
         elif status in (MpcStatus.MAX_ITERATIONS, MpcStatus.SOLVED_INACCURATE) and np.all(
             np.isfinite(z)
         ):
@@ -391,17 +441,20 @@ class LosCorridorMpc:
             elapsed = time.perf_counter() - start
             return MpcResult(status, None, None, None, iterations, elapsed)
         self._last_solution = (z.copy(), result.y.copy())
+        excess = float(np.max(z[self._s_offset :], initial=0.0))
         elapsed = time.perf_counter() - start
-        return MpcResult(status, u_all[0].copy(), u_all, x, iterations, elapsed, checked)
+        return MpcResult(status, u_all[0].copy(), u_all, x, iterations, elapsed, checked, excess)
 
     def _rollout_check(self, x_k, z, A_d, B_d, bounds) -> tuple[np.ndarray, np.ndarray, bool]:
         """(u clipped, the rollout x, whether every predicted position j >= 1 meets the QP's
         own 11d bounds to check_tolerance_m): the independent check of an unfinished iterate."""
         a_max = self.settings.a_max_m_s2
-        u_all = np.clip(z[self._u_offset :].reshape(self.N, 3), -a_max, a_max)
+        u_all = np.clip(z[self._u_offset : self._s_offset].reshape(self.N, 3), -a_max, a_max)
         x = np.empty((self.N + 1, 6))
         x[0] = x_k
         for j in range(self.N):
             x[j + 1] = A_d[j] @ x[j] + B_d[j] @ u_all[j]
+        if self.soft:
+            return u_all, x, True
         distance = (bounds[1:] - x[1:, :3] @ self._A_c.T) / self._row_norms
         return u_all, x, bool(np.min(distance) >= -self.settings.check_tolerance_m)

@@ -34,8 +34,11 @@ took OSQP ten times the iterations). The prediction model is the exact Jacobian 
 (`prediction: online`), or CW's exact STM and ZOH input matrix carried into T (`cw`), one pair
 for the horizon or, for a tumble that changes the body-frame dynamics (`time_varying_model`),
 one per predicted step along the predicted attitude. When the QP fails (infeasible, not
-converged), the status is kept and the fallback is applied: the previous plan's next input while
-it lasts, else braking to zero body-frame velocity within the box (eq. 11e). Beyond r_sync no
+converged), the status is kept and the best-effort QP flies: the same QP with the corridor as
+an exact L1 penalty (rpod.planners.los_corridor_mpc, `mpc.corridor_penalty`; rpod's, not the
+paper's), whose input keeps the predicted excursion as small as the box allows instead of
+ignoring the corridor. Only if that fails too (or `mpc.corridor_penalty: 0`, the paper's chain)
+is the fallback applied: the previous plan's next input while it lasts, else braking to zero body-frame velocity within the box (eq. 11e). Beyond r_sync no
 input can stop the chaser in T (that is what eq. 14 says: the centripetal omega_t^2 r alone
 exceeds a_max / 2 r_sync / r), and there the QP is infeasible by construction; so in the far
 regime the last fallback is the far approach's own command (clipped to the box), which brings
@@ -74,6 +77,7 @@ class Fallback(enum.IntEnum):
     PREVIOUS_PLAN = 1  # the previous plan's next input
     BRAKE = 2  # braking to zero body-frame velocity
     NOMINAL = 3  # far out: the far approach's own command (braking is impossible there)
+    BEST_EFFORT = 4  # the best-effort QP's u_0 (the corridor as an exact penalty)
 
 
 # MpcStatus -> the integer the log holds (-1: no solve this step).
@@ -293,7 +297,8 @@ class LosGuidance(LeafSystem):
         acceleration_command_L (3): the applied command u_0 (or the fallback) [m/s^2].
         nominal_command_L (3): the regime's command before the MPC [m/s^2].
         guidance_status (5): [regime, MPC status code (-1: none), fallback, OSQP iterations,
-            solve time s] of the last sample (regime -1 before the first).
+            solve time s] of the last sample (regime -1 before the first); on a failed step the
+            iterations and the time are both QPs' (the hard one and the best-effort one).
         hold_point_L (3): H in L now [m] (from the sensed attitude; no state).
         face_distance_m (n_f + 1): the chaser's signed distance to each corridor plane,
             positive inside (faces, then the floor) [m] (from the sensed state; no state).
@@ -307,8 +312,12 @@ class LosGuidance(LeafSystem):
         self.p_TH_T = np.array([0.0, config.hold_distance_m, 0.0])
         A_c = self.corridor.A_c
         self._row_norms = np.linalg.norm(A_c, axis=1)
-        self._mpc = (
-            LosCorridorMpc(config.mpc_settings(), A_c, self.corridor.b_c) if config.filter else None
+        settings = config.mpc_settings()
+        self._mpc = LosCorridorMpc(settings, A_c, self.corridor.b_c) if config.filter else None
+        self._best_effort = (
+            LosCorridorMpc(settings, A_c, self.corridor.b_c, soft=True)
+            if config.filter and settings.corridor_penalty > 0
+            else None
         )
         self._step = BodyFrameStep(
             config.control_period_s, gravity, np.asarray(inertia_T, float), int(config.substeps)
@@ -425,8 +434,16 @@ class LosGuidance(LeafSystem):
             result = self._mpc.solve(x_T, x_ref, u_prev, A_d, B_d, u_nom=u_nom)
             status_code = MPC_STATUS_CODES[result.status]
             iterations, solve_time = result.iterations, result.solve_time_s
+            best = None
+            if not result.solved and self._best_effort is not None:
+                best = self._best_effort.solve(x_T, x_ref, u_prev, A_d, B_d, u_nom=u_nom)
+                iterations += best.iterations
+                solve_time += best.solve_time_s
             if result.solved:
                 command, plan, plan_age = result.u0, result.u, 0
+            elif best is not None and best.solved:
+                command, plan, plan_age = best.u0, best.u, 0
+                fallback = Fallback.BEST_EFFORT
             elif plan_age + 1 < min(len(plan), config.fallback_plan_steps + 1):
                 plan_age += 1
                 command, fallback = plan[int(plan_age)], Fallback.PREVIOUS_PLAN

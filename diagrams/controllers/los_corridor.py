@@ -34,7 +34,12 @@ from rpod.diagrams.plots import chaser_in_target_frame
 from rpod.diagrams.plots_los import violation_summary
 from rpod.diagrams.scenario import ScenarioError
 from rpod.models.frames import rotations_from_wxyz
-from rpod.models.los_corridor import VIOLATION_TOLERANCE_M, sync_range_m
+from rpod.models.los_corridor import (
+    VIOLATION_TOLERANCE_M,
+    holding_range_m,
+    suggested_hold_distance_m,
+    sync_range_m,
+)
 from rpod.planners.los_corridor_mpc import MpcStatus
 from rpod.systems.acceleration_to_wrench import AccelerationToWrench
 from rpod.systems.los_guidance import (
@@ -107,6 +112,32 @@ class LosCorridorPlugin(ControllerPlugin):
                 "controller.control_period_s",
                 f"with thrusters it must be a multiple of the {THRUSTER_PERIOD_S} s PWM period",
             )
+
+    def load_warnings(self, config, scenario) -> list[str]:
+        """A hold point the box cannot hold at rest in the tumbling frame (omega_t^2 |p_TH| >
+        a_max, rpod.models.los_corridor.holding_range_m), with the hold distance that can."""
+        omega = float(np.linalg.norm(np.radians(scenario.target.w_IT_T_deg_s)))
+        if omega == 0.0:
+            return []
+        a_max, hold = config.a_max_m_s2, config.hold_distance_m
+        r_hold = holding_range_m(a_max, omega)
+        if hold <= r_hold:
+            return []
+        offer = suggested_hold_distance_m(a_max, omega)
+        text = (
+            f"controller.hold_distance_m: the hold point {hold:g} m up the axis cannot be held: "
+            f"at rest in the tumbling frame it needs omega_t^2 r = {omega**2 * hold:.3g} m/s^2, "
+            f"more than a_max = {a_max:g} m/s^2 (the box holds out to r_sync / 2 = "
+            f"{r_hold:.2f} m); "
+        )
+        if offer > config.floor_m:
+            text += (
+                f"hold_distance_m = {offer:.2f} (r_sync / 4, half the box left for control) "
+                "can be held"
+            )
+        else:
+            text += f"no point beyond the corridor's {config.floor_m:g} m floor can be held"
+        return [text]
 
     def add_to_diagram(self, builder, scenario, sensed) -> ControllerWiring:
         config = scenario.controller
@@ -234,6 +265,7 @@ class LosCorridorPlugin(ControllerPlugin):
             ),
             "los_fallback_brake": int(np.count_nonzero(fallbacks == Fallback.BRAKE)),
             "los_fallback_far_command": int(np.count_nonzero(fallbacks == Fallback.NOMINAL)),
+            "los_fallback_best_effort": int(np.count_nonzero(fallbacks == Fallback.BEST_EFFORT)),
             "los_regime_steps": {
                 regime.name.lower(): int(np.count_nonzero(log["los_regime"][steps] == regime))
                 for regime in Regime
@@ -286,6 +318,7 @@ def _solver_text(summary: dict) -> str:
     text = f"{summary['los_qp_not_solved']} QPs not solved, {summary['los_fallback_steps']} steps on a fallback"
     if summary["los_fallback_steps"]:
         kinds = [
+            ("best-effort QP", summary["los_fallback_best_effort"]),
             ("previous plan", summary["los_fallback_previous_plan"]),
             ("brake", summary["los_fallback_brake"]),
             ("far command", summary["los_fallback_far_command"]),

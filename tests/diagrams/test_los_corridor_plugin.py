@@ -48,6 +48,26 @@ def test_the_linearisation_needs_an_orbit():
         validate_scenario(scenario)
 
 
+def test_a_hold_point_the_box_cannot_hold_is_a_warning_that_offers_one_it_can():
+    """omega_t^2 |p_TH| > a_max (5 deg/s, 0.05 m/s^2 and the 10 m hold): warned at load, with
+    the hold distance of the holding condition's margin (r_sync / 4 = 3.28 m)."""
+    scenario = _scenario(a_max_m_s2=0.05)
+    scenario.target.w_IT_T_deg_s = [0.0, 0.0, 5.0]
+    plugin = plugin_for(scenario.controller)
+    (warning,) = plugin.load_warnings(scenario.controller, scenario)
+    assert warning.startswith("controller.hold_distance_m: the hold point 10 m")
+    assert "r_sync / 2 = 6.57 m" in warning and "hold_distance_m = 3.28" in warning
+    scenario.controller.hold_distance_m = 3.28
+    assert plugin.load_warnings(scenario.controller, scenario) == []
+    # The bundled scenario (2 deg/s, 0.10 m/s^2: r_hold 82 m) holds its 10 m: no warning.
+    bundled = _scenario()
+    assert plugin.load_warnings(bundled.controller, bundled) == []
+    # Fast enough that nothing beyond the 1 m floor holds: said so.
+    scenario.target.w_IT_T_deg_s = [0.0, 0.0, 20.0]
+    (warning,) = plugin.load_warnings(scenario.controller, scenario)
+    assert "no point beyond the corridor's 1 m floor can be held" in warning
+
+
 def test_actuation_follows_the_config():
     plugin = plugin_for(LosCorridor())
     assert plugin.actuation_for(LosCorridor()) is Actuation.IDEAL

@@ -7,7 +7,13 @@ import numpy as np
 import pytest
 from pydrake.math import RollPitchYaw, RotationMatrix
 
-from rpod.models.los_corridor import LosCorridor, body_relative_state, sync_range_m
+from rpod.models.los_corridor import (
+    LosCorridor,
+    body_relative_state,
+    holding_range_m,
+    suggested_hold_distance_m,
+    sync_range_m,
+)
 
 CORRIDOR = LosCorridor()  # Table 1: 30 deg, 8 faces, floor 1 m
 
@@ -89,3 +95,19 @@ def test_a_co_rotating_chaser_is_at_rest_in_the_body_frame():
     p_T, v_T = body_relative_state(R_IT, w_T, r_c, v_c, r_t, v_t)
     np.testing.assert_allclose(p_T, p_T_true, atol=1e-8)  # 7,000 km positions: 1e-8 m
     np.testing.assert_allclose(v_T, 0.0, atol=1e-10)  # 7.5 km/s differenced: ~1e-12 each
+
+
+def test_the_holding_range_is_where_the_centripetal_acceleration_uses_the_whole_box():
+    """At r_hold a point at rest in T turns on a circle of radius r_hold at omega_t: its
+    acceleration, computed as the second difference of that circle, is a_max; it is r_sync / 2
+    (paper 004's r_sync is the braking condition, not the holding one)."""
+    a_max, omega = 0.05, math.radians(5.0)
+    r_hold = holding_range_m(a_max, omega)
+    assert r_hold == pytest.approx(sync_range_m(a_max, omega) / 2, rel=1e-12)
+    dt = 1e-3
+    circle = [r_hold * np.array([math.cos(omega * t), math.sin(omega * t)]) for t in (-dt, 0, dt)]
+    acceleration = (circle[0] - 2 * circle[1] + circle[2]) / dt**2
+    assert np.linalg.norm(acceleration) == pytest.approx(a_max, rel=1e-6)
+    # The suggested hold point uses half of it (the issue's 5 deg/s, 0.05 m/s^2: 3.28 m).
+    assert suggested_hold_distance_m(a_max, omega) == pytest.approx(r_hold / 2, rel=1e-12)
+    assert round(suggested_hold_distance_m(a_max, omega), 2) == 3.28

@@ -153,3 +153,47 @@ def test_the_recovery_funnel_brings_a_chaser_outside_back_in_within_its_steps():
     # The paper's 11d: the same start is an infeasible QP.
     paper = LosCorridorMpc(LosMpcSettings(horizon=20, **PAPER_11D), CORRIDOR.A_c, CORRIDOR.b_c)
     assert not paper.solve(outside, np.zeros(6), np.zeros(3), A_d, B_d).solved
+
+
+def test_the_best_effort_qp_is_exact_where_the_hard_one_is_feasible():
+    """The corridor as an exact L1 penalty: where eq. 11 is feasible, the soft QP's optimum is
+    the hard one's (every slack zero, the same inputs), here with the reference pulling the plan
+    onto a face so that the corridor's multipliers are not zero."""
+    settings = LosMpcSettings(horizon=20, a_max_m_s2=0.02, **TIGHT, **PAPER_11D)
+    hard = LosCorridorMpc(settings, CORRIDOR.A_c, CORRIDOR.b_c)
+    soft = LosCorridorMpc(settings, CORRIDOR.A_c, CORRIDOR.b_c, soft=True)
+    A_d, B_d = _model()
+    x_k, x_ref = np.array([10.0, 20.0, 0.0, 0.0, 0.0, 0.0]), np.array([30.0, 20.0, 0, 0, 0, 0])
+    on_face = hard.solve(x_k, x_ref, np.zeros(3), A_d, B_d)
+    best = soft.solve(x_k, x_ref, np.zeros(3), A_d, B_d)
+    assert on_face.status is MpcStatus.SOLVED and best.status is MpcStatus.SOLVED
+    assert best.excess_m < 1e-6
+    _check_solution(best, x_k, A_d, B_d, 0.02)
+    np.testing.assert_allclose(best.u, on_face.u, atol=1e-6)
+
+
+def test_the_best_effort_qp_answers_where_the_hard_one_is_infeasible():
+    """A chaser 12 m up the axis rushing sideways at 1 m/s (in T) cannot stay inside with
+    0.02 m/s^2: eq. 11 is infeasible. The soft QP still returns an input inside the box, its
+    planned excursion s_j equals what its own trajectory leaves the corridor by, and no input
+    could do much better: braking flat out (the least-excursion input along the rush) leaves it
+    at least as far out."""
+    settings = LosMpcSettings(horizon=20, a_max_m_s2=0.02, **TIGHT, **PAPER_11D)
+    hard = LosCorridorMpc(settings, CORRIDOR.A_c, CORRIDOR.b_c)
+    soft = LosCorridorMpc(settings, CORRIDOR.A_c, CORRIDOR.b_c, soft=True)
+    A_d, B_d = _model()
+    x_k, x_ref = np.array([0.0, 12.0, 0.0, 1.0, 0.0, 0.0]), np.array([0.0, 12.0, 0, 0, 0, 0])
+    assert not hard.solve(x_k, x_ref, np.zeros(3), A_d, B_d).solved
+    best = soft.solve(x_k, x_ref, np.zeros(3), A_d, B_d)
+    assert best.solved and best.status is MpcStatus.SOLVED
+    assert np.all(np.abs(best.u) <= 0.02 + 1e-9)
+    residual = best.x[1:] - (best.x[:-1] @ A_d.T + best.u @ B_d.T)
+    assert np.max(np.abs(residual)) < 1e-6  # (11b) still holds exactly
+    outside = np.max(-CORRIDOR.slack(best.x[:, :3]) / np.linalg.norm(CORRIDOR.A_c, axis=1))
+    assert best.excess_m == pytest.approx(outside, abs=1e-5) and best.excess_m > 0.1
+    brake = np.tile([-0.02, 0.0, 0.0], (20, 1))
+    x = [x_k]
+    for u in brake:
+        x.append(A_d @ x[-1] + B_d @ u)
+    braked = np.max(-CORRIDOR.slack(np.array(x)[:, :3]) / np.linalg.norm(CORRIDOR.A_c, axis=1))
+    assert best.excess_m <= braked + 1e-3

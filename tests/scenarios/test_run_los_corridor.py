@@ -153,3 +153,58 @@ def test_stop_at_violation_ends_the_run_at_the_first_violating_step(tmp_path):
     log = np.load(out / "log.npz")
     assert _face_distances(log)[-1].min() < -TOLERANCE_M
     assert summary["status"] == "ok"
+
+
+def test_a_start_the_hard_filter_gives_up_on_flies_the_best_effort_qp(tmp_path):
+    """Issue 19's start inside r_sync (82 m) but at rest in L, so 4.5 m/s across the turning
+    corridor: no input keeps it inside, and every hard QP was infeasible. Before the best-effort
+    QP the whole run flew the far-approach fallback, which ignores the corridor, 105.8 m out
+    (delta-v 119 m/s); the soft corridor keeps the excursion to metres, and the line counts it."""
+    out = tmp_path / "best_effort"
+    process = _run(
+        out,
+        "los_corridor",
+        "--no-record",
+        "--set",
+        "target.w_IT_T_deg_s=[0, 0, 4]",
+        "--set",
+        "controller.a_max_m_s2=0.2",
+        "--set",
+        "chaser.p_LC_L=[11.609571, 63.953919, 0]",
+        "--set",
+        "duration_s=200",
+    )
+    assert process.returncode == 3, process.stderr  # it still leaves the corridor: no success
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["los_fallback_best_effort"] > 0
+    assert summary["los_fallback_far_command"] == 0
+    assert 0 < summary["los_violation_depth_m"] < 10.0
+    line = process.stdout.strip().splitlines()[-1]
+    assert f"best-effort QP {summary['los_fallback_best_effort']}" in line
+
+
+def test_the_offered_hold_distance_holds_where_the_warned_one_cannot(tmp_path):
+    """5 deg/s with a_max = 0.05 m/s^2: the 10 m hold is warned at load and the warning's
+    offer (r_sync / 4 = 3.28 m) is held with zero violations."""
+    settings = ["target.w_IT_T_deg_s=[0, 0, 5]", "controller.a_max_m_s2=0.05"]
+    settings += ["chaser.p_LC_L=[0, 5, 0]"]
+    args = [arg for setting in settings for arg in ("--set", setting)]
+    warned = _run(
+        tmp_path / "warned", "los_corridor", "--no-record", *args, "--set", "duration_s=5"
+    )
+    assert "rpod: warning: controller.hold_distance_m: the hold point 10 m" in warned.stderr
+    assert "hold_distance_m = 3.28" in warned.stderr
+    offered = _run(
+        tmp_path / "offered",
+        "los_corridor",
+        "--no-record",
+        *args,
+        "--set",
+        "controller.hold_distance_m=3.28",
+        "--set",
+        "duration_s=120",
+    )
+    assert offered.returncode == 0, offered.stdout + offered.stderr
+    assert "rpod: warning" not in offered.stderr
+    summary = json.loads((tmp_path / "offered" / "summary.json").read_text())
+    assert summary["los_held"] and not summary["los_violation"]

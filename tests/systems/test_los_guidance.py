@@ -92,9 +92,12 @@ def test_regimes_on_hand_worked_states():
     assert mode([0, 12.5, 0], [0.0, 0, 0], holding=True) is Regime.CLOSE
 
 
-def _guidance(horizon=5):
-    """The paper's hard 11d (no margin, no funnel) and the whole last plan as the fallback."""
-    settings = LosMpcSettings(horizon=horizon, margin_m=0.0, recovery_steps=0)
+def _guidance(horizon=5, corridor_penalty=0.0):
+    """The paper's hard 11d (no margin, no funnel) and the whole last plan as the fallback;
+    no best-effort QP unless a corridor_penalty is given."""
+    settings = LosMpcSettings(
+        horizon=horizon, margin_m=0.0, recovery_steps=0, corridor_penalty=corridor_penalty
+    )
     config = LosGuidanceConfig(mpc=settings, fallback_plan_steps=horizon)
     system = LosGuidance(config, INERTIA, "two_body_j2")
     context = system.CreateDefaultContext()
@@ -130,6 +133,26 @@ def test_a_forced_infeasible_qp_takes_the_previous_plan_then_brakes():
     assert status[2] == Fallback.BRAKE
     command = system.GetOutputPort("acceleration_command_L").Eval(context)
     assert np.all(np.abs(command) <= 0.1) and np.linalg.norm(command) > 0
+
+
+def test_a_failed_qp_flies_the_best_effort_input_before_any_fallback():
+    """With the best-effort QP (rpod's default), the step whose hard QP is infeasible flies the
+    soft QP's u_0, inside the box, and keeps its plan: neither the previous plan nor the brake."""
+    system, context, simulator = _guidance(horizon=5, corridor_penalty=1e5)
+    port = system.get_input_port(0)
+    port.FixValue(context, _sensed([3.0, 40.0, 0.0], [0.0, -0.2, 0.0]))
+    simulator.AdvanceTo(0.5)
+    assert _status(system, context)[2] == Fallback.NONE
+    port.FixValue(context, _sensed([0.0, -5.0, 0.0], [0.0, 0.1, 0.0]))  # behind the target
+    for k in range(1, 4):
+        simulator.AdvanceTo(k + 0.5)
+        status = _status(system, context)
+        assert status[1] == MPC_STATUS_CODES[MpcStatus.PRIMAL_INFEASIBLE]
+        assert status[2] == Fallback.BEST_EFFORT
+        command = system.GetOutputPort("acceleration_command_L").Eval(context)
+        plan = context.get_abstract_state(0).get_value()
+        np.testing.assert_array_equal(command, plan[0])
+        assert np.all(np.abs(command) <= 0.1 + 1e-9)
 
 
 def test_without_the_filter_the_regime_command_is_flown_clipped():
