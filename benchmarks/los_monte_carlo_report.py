@@ -156,6 +156,24 @@ def main() -> None:
             f"{table[(False, True)]}, uncertified and infeasible {table[(False, False)]}."
         ),
         "",
+        "## Paper 004's conclusion 5 against the holding condition",
+        "",
+        (
+            "Conclusion 5 says a start inside r_sync = 2 a_max / omega_t^2 (eq. 14) can be "
+            "brought to the hold. r_sync is the braking condition: a chaser at rest in the "
+            "tumbling frame can brake its apparent speed omega_t r within r. Staying there asks "
+            "for the centripetal omega_t^2 r <= a_max, i.e. r <= r_hold = r_sync / 2 "
+            "(rpod.models.los_corridor.holding_range_m). The starts by band, feasible / all:"
+        ),
+        "",
+        "| band | feasible starts | share |",
+        "| --- | ---: | ---: |",
+        *[
+            f"| {name} | {feasible}/{total} | "
+            f"{(100.0 * feasible / total if total else math.nan):.1f} % |"
+            for name, (feasible, total) in mc.holding_bands(records).items()
+        ],
+        "",
         "## X_nom within X_MC: the exceptions",
         "",
         (

@@ -569,3 +569,28 @@ def mc_report(
             )
         )
     return records
+
+
+# The bands of `holding_bands`: (name, lower bound, upper bound) as fractions of r_sync.
+HOLDING_BANDS = (
+    ("r <= r_hold", 0.0, 0.5),
+    ("r_hold < r <= r_sync", 0.5, 1.0),
+    ("r > r_sync", 1.0, math.inf),
+)
+
+
+def holding_bands(records: list[McCombination]) -> dict[str, tuple[int, int]]:
+    """{band: (feasible starts, starts)} over every combination, each start placed by its range
+    |p_T| against its combination's r_sync: inside the holding range r_hold = r_sync / 2
+    (rpod.models.los_corridor.holding_range_m), between it and r_sync, or beyond r_sync. Paper
+    004's conclusion 5 says a start inside r_sync can be held; the bands say where that holds."""
+    counts = {name: [0, 0] for name, _, _ in HOLDING_BANDS}
+    for record in records:
+        for start in record.starts:
+            fraction = float(np.linalg.norm(start.p_T)) / record.r_sync_m
+            for name, low, high in HOLDING_BANDS:
+                if low < fraction <= high or (low == 0.0 and fraction == 0.0):
+                    counts[name][0] += int(start.feasible)
+                    counts[name][1] += 1
+                    break
+    return {name: (feasible, total) for name, (feasible, total) in counts.items()}

@@ -200,10 +200,13 @@ class LosCorridorPlugin(ControllerPlugin):
         if not table:
             return None
         title = (
-            "Paper 004 Table 3 beside this campaign (ours: r_sync exact, eq. 14; each start's "
-            "outcome over the run; paper: r_sync / Hold / r_min as printed):"
+            "Paper 004 Table 3 beside this campaign (ours: r_sync exact, eq. 14, and beside it "
+            "r_hold = a_max / omega_t^2 = r_sync / 2, the farthest a chaser at rest in the "
+            "tumbling frame can stay; each start's outcome over the run; paper: r_sync / Hold / "
+            "r_min as printed):"
         )
-        header = ["omega_t deg/s", "a_max m/s^2", "r_sync m", "start inside", "start outside"]
+        header = ["omega_t deg/s", "a_max m/s^2", "r_sync m", "r_hold m"]
+        header += ["start inside", "start outside"]
         return title, [*header, "paper 004"], table
 
     def results(self, scenario, wiring, context, log) -> ControllerResults:
@@ -365,6 +368,7 @@ def table3_rows(rows: list[dict]) -> list[list[str]] | None:
                 f"{omega:g}",
                 f"{a_max:.2f}",
                 f"{r_sync:.1f}",
+                f"{holding_range_m(a_max, math.radians(omega)):.1f}",
                 _start_outcome(starts.get("inside")),
                 _start_outcome(starts.get("outside")),
                 paper_text,

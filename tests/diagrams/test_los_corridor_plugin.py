@@ -113,9 +113,10 @@ def test_table3_rows_pair_the_starts_and_sit_beside_the_paper():
     ]
     (line,) = table3_rows(rows)
     assert line[:3] == ["2", "0.10", "164.1"]  # r_sync = 2 a_max / omega_t^2, exact
-    assert line[3] == "hold, 0 violations, r_min 9.7 m"
-    assert line[4] == "no hold, violated 550.20 m, r_min 159.4 m, CONTACT"
-    assert line[5] == "164.1 / No / 143.0"  # the paper's row as printed
+    assert line[3] == "82.1"  # r_hold = r_sync / 2, the holding condition
+    assert line[4] == "hold, 0 violations, r_min 9.7 m"
+    assert line[5] == "no hold, violated 550.20 m, r_min 159.4 m, CONTACT"
+    assert line[6] == "164.1 / No / 143.0"  # the paper's row as printed
     assert table3_rows([rows[2]]) is None
 
 

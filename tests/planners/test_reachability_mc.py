@@ -339,3 +339,23 @@ def test_small_r_sync_is_all_extrapolated():
     assert record.nominal_not_mc > 0
     assert record.nominal_not_mc_extrapolated == record.nominal_not_mc
     assert all(e.start.p_T[1] == 20.0 for e in record.exceptions)
+
+
+def test_holding_bands_place_each_start_by_its_range_against_r_sync():
+    """r_sync = 100 m: starts at 30 and 50 m are within r_hold = 50 m, 70 and 100 m between
+    r_hold and r_sync, 150 m beyond; the feasible ones are counted per band."""
+
+    def start(y, feasible):
+        return mc.McStart(2.0, 0.1, np.array([0.0, y, 0.0]), feasible, "", "id", "ok", {})
+
+    record = types.SimpleNamespace(
+        r_sync_m=100.0,
+        starts=[start(30, True), start(50, False), start(70, True), start(100, False)]
+        + [start(150, False)],
+    )
+    bands = mc.holding_bands([record])
+    assert bands == {
+        "r <= r_hold": (1, 2),
+        "r_hold < r <= r_sync": (1, 2),
+        "r > r_sync": (0, 1),
+    }
