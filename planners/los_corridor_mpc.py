@@ -41,10 +41,16 @@ and whatever the controller flies instead ignores the corridor. The same QP with
 
     A_c [x_j]_{1:3} <= b_c,j + |A_c,i| s_j,   s_j >= 0,   cost + sum_j (rho s_j + s_j^2),
 
-always has a solution (s_j is how far outside the corridor step j's plan may go [m]) and, with
-rho above the corridor's multipliers, is an exact penalty: where the hard QP is feasible its
-optimum is the hard one's (s = 0; tested), and where it is not, the input keeps the predicted
-excursion as small as the box allows. rho is `LosMpcSettings.corridor_penalty`.
+has a solution (s_j is how far outside the corridor step j's plan may go [m]) and, with rho
+above the corridor's multipliers, is an exact penalty: where the hard QP is feasible its optimum
+is the hard one's (s = 0; tested), and where it is not, the input keeps the predicted excursion
+as small as the box allows. rho is `LosMpcSettings.corridor_penalty`. Once the corridor is soft
+nothing keeps the plan off the target (inside the corridor its floor does): the shortest way
+back into the cone can run through its apex. So the best-effort QP keeps every predicted
+position j >= 1 beyond the plane tangent to a keep-out sphere, n . p_j >= r_ko with n the
+current direction p_0 / |p_0| (the usual convex inner approximation of |p| >= r_ko); a step
+that cannot meet it has no best-effort input either (Table 3's fastest outside starts touched
+the target without it).
 """
 
 import dataclasses
@@ -165,8 +171,8 @@ class MpcResult:
         iterations: OSQP's ADMM iterations.
         solve_time_s: wall time of the update, the solve and the check [s].
         checked: an unfinished iterate passed the rollout check (LosMpcSettings); its x is
-            the rollout, its u the clipped inputs. On the best-effort QP every finite iterate
-            passes (its inputs clipped to the box: it promises no corridor).
+            the rollout, its u the clipped inputs. On the best-effort QP, which promises no
+            corridor, an iterate passes when its rollout keeps the keep-out to that distance.
         excess_m: the best-effort QP's largest planned s_j, how far outside the corridor its
             plan goes at worst [m] (0 on the hard QP).
     """
@@ -190,7 +196,12 @@ class LosCorridorMpc:
     """The persistent QP of eq. 11 (module docstring)."""
 
     def __init__(
-        self, settings: LosMpcSettings, A_c: np.ndarray, b_c: np.ndarray, soft: bool = False
+        self,
+        settings: LosMpcSettings,
+        A_c: np.ndarray,
+        b_c: np.ndarray,
+        soft: bool = False,
+        keep_out_m: float = 0.0,
     ):
         """Builds and sets up the QP once (A_d = I, B_d = 0 until the first `solve`).
 
@@ -198,12 +209,16 @@ class LosCorridorMpc:
             settings: the MPC's settings (validated here).
             A_c, b_c: the corridor's half-spaces on the position, A_c p <= b_c (eq. 9).
             soft: the best-effort QP (module docstring), with settings.corridor_penalty.
+            keep_out_m: r_ko, the best-effort QP's keep-out radius about the target [m].
         """
         settings.validate()
         if soft and not settings.corridor_penalty > 0:
             raise ValueError("corridor_penalty: the best-effort QP needs a positive penalty")
+        if not (np.isfinite(keep_out_m) and keep_out_m >= 0):
+            raise ValueError(f"keep_out_m: must not be negative, got {keep_out_m}")
         self.settings = settings
         self.soft = soft
+        self.keep_out_m = float(keep_out_m)
         N = self.N = int(settings.horizon)
         self._A_c = np.asarray(A_c, dtype=float)
         self._b_c = np.asarray(b_c, dtype=float)
@@ -266,9 +281,13 @@ class LosCorridorMpc:
             for k in range(nu):
                 add(r_u + nu * j + k, self._u_offset + nu * j + k, 1.0)
         m = r_u + nu * N
-        if soft:  # s_j >= 0
+        if soft:  # s_j >= 0, then the keep-out n . p_j >= r_ko (n tagged -2 - (3 j + k))
             for j in range(N + 1):
                 add(m + j, self._s_offset + j, 1.0)
+            m += N + 1
+            for j in range(N + 1):
+                for k in range(3):
+                    add(m + j, nx * j + k, 0.0, -2 - (3 * j + k))
             m += N + 1
         # CSC with explicit zeros kept: build from ids, read the slot order, then the values.
         tags = sp.csc_matrix(
@@ -281,6 +300,8 @@ class LosCorridorMpc:
         )
         entry_ids = np.asarray(ids)[order]
         self._dyn_csc_slots = np.flatnonzero(entry_ids >= 0)  # csc slots of A_d, B_d entries
+        self._ko_csc_slots = np.flatnonzero(entry_ids <= -2)  # csc slots of the keep-out's n
+        self._ko_source = -2 - entry_ids[self._ko_csc_slots]  # index into n tiled N + 1 times
         # Where each of those slots takes its value in [A_d,j.ravel(), B_d,j.ravel()] over j
         # (negated): 54 values per step.
         source = np.array(
@@ -296,11 +317,13 @@ class LosCorridorMpc:
         a_max = settings.a_max_m_s2
         x_rows = np.zeros(nx * (N + 1))
         s_rows = np.zeros(N + 1 if soft else 0)
+        ko_lower = np.r_[-np.inf, np.full(N, self.keep_out_m)] if soft else s_rows
         self._l = np.concatenate(
-            [x_rows, np.full(nc * (N + 1), -np.inf), np.full(nu * N, -a_max), s_rows]
+            [x_rows, np.full(nc * (N + 1), -np.inf), np.full(nu * N, -a_max), s_rows, ko_lower]
         )
         self._u = np.concatenate(
             [x_rows, np.tile(self._b_c, N + 1), np.full(nu * N, a_max), s_rows + np.inf]
+            + [s_rows + np.inf]
         )
         self._solver = osqp.OSQP()
         self._solver.setup(
@@ -321,6 +344,8 @@ class LosCorridorMpc:
         """(P, q, A, l, u) of the QP at these data (P upper triangular): for a reference solve."""
         A = self._A.copy()
         A.data[self._dyn_csc_slots] = self._dynamics_values(*self._per_step(A_d, B_d))
+        if self.soft:
+            A.data[self._ko_csc_slots] = self._keep_out_values(x_k)
         l, u = self._l.copy(), self._u.copy()
         l[:6] = u[:6] = x_k
         u[self._corridor_rows] = self._corridor_bounds(x_k).ravel()
@@ -352,6 +377,13 @@ class LosCorridorMpc:
                 f" got {A_d.shape} and {B_d.shape}"
             )
         return A_d, B_d
+
+    def _keep_out_values(self, x_k) -> np.ndarray:
+        """The keep-out rows' n = p_0 / |p_0| at every step, in CSC slot order (soft only)."""
+        p = np.asarray(x_k, dtype=float)[:3]
+        norm = float(np.linalg.norm(p))
+        n = p / norm if norm > 0 else np.array([0.0, 1.0, 0.0])
+        return np.tile(n, self.N + 1)[self._ko_source]
 
     def _dynamics_values(self, A_d, B_d) -> np.ndarray:
         """The constraint matrix's A_d,j, B_d,j slots (negated), in CSC slot order."""
@@ -397,6 +429,7 @@ class LosCorridorMpc:
         self._shift(y, 6 + 6 * N + nc * (N + 1), 3, N)
         if self.soft:
             self._shift(y, 6 + 6 * N + nc * (N + 1) + 3 * N, 1, N + 1)
+            self._shift(y, 6 + 6 * N + nc * (N + 1) + 3 * N + N + 1, 1, N + 1)
         return y
 
     def solve(self, x_k, x_ref, u_prev, A_d, B_d, u_nom=None) -> MpcResult:
@@ -417,7 +450,12 @@ class LosCorridorMpc:
         u[self._corridor_rows] = bounds.ravel()
         A_d, B_d = self._per_step(A_d, B_d)
         last = self._last_dynamics
-        if last is None or not (np.array_equal(last[0], A_d) and np.array_equal(last[1], B_d)):
+        if self.soft:  # the keep-out's direction changes at every step: one update for both
+            slots = np.concatenate([self._dyn_csc_slots, self._ko_csc_slots])
+            values = np.concatenate([self._dynamics_values(A_d, B_d), self._keep_out_values(x_k)])
+            order = np.argsort(slots)
+            self._solver.update(Ax=values[order], Ax_idx=slots[order])
+        elif last is None or not (np.array_equal(last[0], A_d) and np.array_equal(last[1], B_d)):
             # New model values only (the pattern is fixed): OSQP refactors numerically.
             self._solver.update(Ax=self._dynamics_values(A_d, B_d), Ax_idx=self._dyn_csc_slots)
             self._last_dynamics = (A_d.copy(), B_d.copy())
@@ -454,7 +492,10 @@ class LosCorridorMpc:
         x[0] = x_k
         for j in range(self.N):
             x[j + 1] = A_d[j] @ x[j] + B_d[j] @ u_all[j]
-        if self.soft:
-            return u_all, x, True
+        if self.soft:  # no corridor promised; the keep-out is (module docstring)
+            p0 = np.asarray(x_k, dtype=float)[:3]
+            n = p0 / max(float(np.linalg.norm(p0)), 1e-12)
+            clear = x[1:, :3] @ n - self.keep_out_m
+            return u_all, x, bool(np.min(clear) >= -self.settings.check_tolerance_m)
         distance = (bounds[1:] - x[1:, :3] @ self._A_c.T) / self._row_norms
         return u_all, x, bool(np.min(distance) >= -self.settings.check_tolerance_m)

@@ -37,8 +37,11 @@ one per predicted step along the predicted attitude. When the QP fails (infeasib
 converged), the status is kept and the best-effort QP flies: the same QP with the corridor as
 an exact L1 penalty (rpod.planners.los_corridor_mpc, `mpc.corridor_penalty`; rpod's, not the
 paper's), whose input keeps the predicted excursion as small as the box allows instead of
-ignoring the corridor. Only if that fails too (or `mpc.corridor_penalty: 0`, the paper's chain)
-is the fallback applied: the previous plan's next input while it lasts, else braking to zero body-frame velocity within the box (eq. 11e). Beyond r_sync no
+ignoring the corridor; not in the far regime, beyond r_sync, where no input keeps the chaser in
+the corridor (eq. 14) and an input that minimises the excursion over one horizon brakes it in T
+and so pushes it out on a spiral (Table 3's outside starts went 1.5-2.4x deeper with it). Only
+if that fails too, in the far regime, or with `mpc.corridor_penalty: 0` (the paper's chain) is
+the fallback applied: the previous plan's next input while it lasts, else braking to zero body-frame velocity within the box (eq. 11e). Beyond r_sync no
 input can stop the chaser in T (that is what eq. 14 says: the centripetal omega_t^2 r alone
 exceeds a_max / 2 r_sync / r), and there the QP is infeasible by construction; so in the far
 regime the last fallback is the far approach's own command (clipped to the box), which brings
@@ -304,7 +307,17 @@ class LosGuidance(LeafSystem):
             positive inside (faces, then the floor) [m] (from the sensed state; no state).
     """
 
-    def __init__(self, config: LosGuidanceConfig, inertia_T: np.ndarray, gravity: str):
+    def __init__(
+        self,
+        config: LosGuidanceConfig,
+        inertia_T: np.ndarray,
+        gravity: str,
+        keep_out_m: float = 0.0,
+    ):
+        """Args: the config; the target's inertia (the prediction's tumble); the truth's
+        gravity ('two_body' | 'two_body_j2'); keep_out_m: the radius about the target that the
+        best-effort QP keeps every predicted position beyond, at least the corridor's floor
+        (rpod.planners.los_corridor_mpc) [m]."""
         super().__init__()
         config.validate()
         self.config = config
@@ -315,7 +328,13 @@ class LosGuidance(LeafSystem):
         settings = config.mpc_settings()
         self._mpc = LosCorridorMpc(settings, A_c, self.corridor.b_c) if config.filter else None
         self._best_effort = (
-            LosCorridorMpc(settings, A_c, self.corridor.b_c, soft=True)
+            LosCorridorMpc(
+                settings,
+                A_c,
+                self.corridor.b_c,
+                soft=True,
+                keep_out_m=max(keep_out_m, config.floor_m),
+            )
             if config.filter and settings.corridor_penalty > 0
             else None
         )
@@ -435,7 +454,7 @@ class LosGuidance(LeafSystem):
             status_code = MPC_STATUS_CODES[result.status]
             iterations, solve_time = result.iterations, result.solve_time_s
             best = None
-            if not result.solved and self._best_effort is not None:
+            if not result.solved and self._best_effort is not None and mode is not Regime.FAR:
                 best = self._best_effort.solve(x_T, x_ref, u_prev, A_d, B_d, u_nom=u_nom)
                 iterations += best.iterations
                 solve_time += best.solve_time_s

@@ -78,6 +78,11 @@ class LosCorridor(LosGuidanceConfig):
             raise ValueError(f"corridor_length_m: must be beyond the floor ({self.floor_m} m)")
 
 
+def _bounding_radius_m(size_m) -> float:
+    """The radius of the sphere about a box's centre that holds it: half its diagonal [m]."""
+    return 0.5 * float(np.linalg.norm(size_m))
+
+
 def applied_acceleration_L(log: dict) -> np.ndarray:
     """The acceleration the truth received, in L: R_LI R_IC f_C / m (N, 3) [m/s^2]."""
     R_IC = rotations_from_wxyz(log["q_IC"])
@@ -143,7 +148,13 @@ class LosCorridorPlugin(ControllerPlugin):
         config = scenario.controller
         guidance = builder.AddNamedSystem(
             self.system_name,
-            LosGuidance(config, np.asarray(scenario.target.inertia_kg_m2), scenario.orbit.gravity),
+            LosGuidance(
+                config,
+                np.asarray(scenario.target.inertia_kg_m2),
+                scenario.orbit.gravity,
+                keep_out_m=_bounding_radius_m(scenario.target.size_m)
+                + _bounding_radius_m(scenario.chaser.size_m),
+            ),
         )
         builder.Connect(sensed, guidance.GetInputPort(SENSED_PORT))
         logged = {

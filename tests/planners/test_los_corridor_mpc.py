@@ -197,3 +197,20 @@ def test_the_best_effort_qp_answers_where_the_hard_one_is_infeasible():
         x.append(A_d @ x[-1] + B_d @ u)
     braked = np.max(-CORRIDOR.slack(np.array(x)[:, :3]) / np.linalg.norm(CORRIDOR.A_c, axis=1))
     assert best.excess_m <= braked + 1e-3
+
+
+def test_the_best_effort_qp_keeps_its_plan_beyond_the_keep_out_plane():
+    """Outside a face near the floor, the soft corridor's shortest way back runs past the
+    target: every predicted position keeps n . p_j >= r_ko, n = p_0 / |p_0| (module docstring),
+    and with r_ko = 0 the same start plans inside that plane's 3 m."""
+    settings = LosMpcSettings(horizon=20, **TIGHT, **PAPER_11D)
+    A_d, B_d = _model()
+    x_k = np.array([4.0, 1.5, 0.0, -0.5, -0.1, 0.0])  # 69 deg off the axis, heading across
+    x_ref = np.array([0.0, 10.0, 0.0, 0.0, 0.0, 0.0])
+    n = x_k[:3] / np.linalg.norm(x_k[:3])
+    for keep_out, holds in ((3.0, True), (0.0, False)):
+        soft = LosCorridorMpc(settings, CORRIDOR.A_c, CORRIDOR.b_c, soft=True, keep_out_m=keep_out)
+        best = soft.solve(x_k, x_ref, np.zeros(3), A_d, B_d)
+        assert best.solved
+        along = best.x[1:, :3] @ n
+        assert bool(np.min(along) >= 3.0 - 1e-6) == holds, np.min(along)
