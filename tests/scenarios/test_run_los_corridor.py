@@ -178,7 +178,7 @@ def test_a_start_the_hard_filter_gives_up_on_flies_the_best_effort_qp(tmp_path):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["los_fallback_best_effort"] > 0
     assert summary["los_fallback_far_command"] == 0
-    assert 0 < summary["los_violation_depth_m"] < 15.0  # measured 9.1 m; was 105.8 m
+    assert 0 < summary["los_violation_depth_m"] < 20.0  # measured 13.9 m; was 105.8 m
     line = process.stdout.strip().splitlines()[-1]
     assert f"best-effort QP {summary['los_fallback_best_effort']}" in line
 
