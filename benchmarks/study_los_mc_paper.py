@@ -1,14 +1,13 @@
 """Paper 004 Sec. 9's Monte Carlo with the paper's MPC as printed beside rpod's, on the same starts.
 
-    python benchmarks/study_los_mc_paper.py RPOD_RESULTS PAPER_RESULTS
+    python benchmarks/study_los_mc_paper.py RESULTS
 
-RPOD_RESULTS is a `rpod sweep los_monte_carlo` (rpod's MPC, 3,900 runs), PAPER_RESULTS a
-`rpod sweep los_monte_carlo_paper` (the paper's MPC as printed on every 5th start: 780 runs; its
-campaign header lists what differs). rpod's runs are kept on the paper campaign's starts only,
-so both columns classify the same 780 (case, start) pairs as Sec. 9 does
-(rpod.planners.reachability_mc), and X_MC is interpolated from the same 39 starts per
-combination, coarser than the 195-start X_MC of benchmarks/results/los_monte_carlo.md. Writes
-benchmarks/results/los_monte_carlo_paper.md.
+RESULTS is a `rpod sweep los_monte_carlo_paper`: every 5th start of Sec. 9's 195 (39) in each of
+the 20 combinations, flown with rpod's MPC (cases w*_a*) and with the paper's as printed (cases
+w*_a*_paper; the campaign's header lists what differs): 1,560 runs. Both columns classify their
+780 runs as Sec. 9 does (rpod.planners.reachability_mc), and X_MC is interpolated from the same
+39 starts per combination, coarser than the 195-start X_MC of
+benchmarks/results/los_monte_carlo.md. Writes benchmarks/results/los_monte_carlo_paper.md.
 """
 
 import argparse
@@ -23,15 +22,7 @@ from rpod.scenarios.store import ResultStore
 RESULTS = pathlib.Path(__file__).resolve().parent / "results" / "los_monte_carlo_paper.md"
 
 
-def _key(row: dict) -> tuple:
-    overrides = row.get("overrides") or {}
-    start = tuple(round(float(v), 3) for v in overrides.get("chaser.p_LC_L", ()))
-    return row.get("case"), start
-
-
-def _rows(results_dir: pathlib.Path) -> list[dict]:
-    with ResultStore.open_existing(results_dir) as store:
-        return store.rows()
+PAPER_SUFFIX = "_paper"  # the campaign's cases flown with the paper's MPC
 
 
 def _share(feasible: int, total: int) -> str:
@@ -40,26 +31,26 @@ def _share(feasible: int, total: int) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("rpod_results", type=pathlib.Path)
-    parser.add_argument("paper_results", type=pathlib.Path)
+    parser.add_argument("results", type=pathlib.Path, help="the campaign's output folder")
     args = parser.parse_args()
-    paper_rows = _rows(args.paper_results)
-    starts = {_key(row) for row in paper_rows}
-    rpod_rows = [row for row in _rows(args.rpod_results) if _key(row) in starts]
-    if len(rpod_rows) != len(paper_rows):
-        sys.exit(f"{len(paper_rows)} paper runs but {len(rpod_rows)} rpod runs on their starts")
+    with ResultStore.open_existing(args.results) as store:
+        rows = store.rows()
+    paper_rows = [row for row in rows if str(row.get("case_name", "")).endswith(PAPER_SUFFIX)]
+    rpod_rows = [row for row in rows if not str(row.get("case_name", "")).endswith(PAPER_SUFFIX)]
+    if len(rpod_rows) != len(paper_rows) or not rows:
+        sys.exit(f"{len(paper_rows)} runs with the paper's MPC but {len(rpod_rows)} with rpod's")
     rpod, paper = mc.mc_report(rpod_rows), mc.mc_report(paper_rows)
     lines = [
         "# Paper 004 Sec. 9 with the paper's MPC as printed, beside rpod's (same starts)",
         "",
         (
-            f"Machine: {machine_line()}; `python benchmarks/study_los_mc_paper.py "
-            f"{args.rpod_results} {args.paper_results}`."
+            f"Machine: {machine_line()}; `rpod sweep los_monte_carlo_paper --out {args.results}`, "
+            f"then `python benchmarks/study_los_mc_paper.py {args.results}`."
         ),
         "",
         (
             "Formulation. Both columns: Sec. 9's 20 combinations on the same 39 starts each (every "
-            "5th of los_monte_carlo's 195; 780 runs), at rest in the target frame, 400 s on J2 "
+            "5th of los_monte_carlo's 195; 780 runs each), at rest in the target frame, 400 s on J2 "
             "truth in the base scenario's 51.6 deg orbit, N_p = 20, R_du = diag(1e5, 1e4, 1e5), "
             "stopped at the first violation, feasible = no violation beyond 1e-3 m. 'paper': 11d "
             "hard and untightened at every step (j = 0 included), H itself as the close "
