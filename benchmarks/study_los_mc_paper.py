@@ -23,6 +23,7 @@ RESULTS = pathlib.Path(__file__).resolve().parent / "results" / "los_monte_carlo
 
 
 PAPER_SUFFIX = "_paper"  # the campaign's cases flown with the paper's MPC
+NOTES = "## What this says"  # the hand-written section of the results file, kept on a rerun
 
 
 def _share(feasible: int, total: int) -> str:
@@ -117,6 +118,10 @@ def main() -> None:
         )
     if len(changed) > 10:
         lines.append(f"- and {len(changed) - 10} more")
+    if RESULTS.exists():  # the hand-written reading of the numbers is kept across reruns
+        old = RESULTS.read_text()
+        if NOTES in old:
+            lines += ["", NOTES + old.split(NOTES, 1)[1].rstrip("\n")]
     write_results(RESULTS, lines)
 
 

@@ -196,8 +196,15 @@ class LosCorridorPlugin(ControllerPlugin):
 
     def campaign_table(self, rows):
         """A campaign of LOS-corridor runs beside paper 004: its Monte Carlo set (Sec. 9, when
-        a combination has more than two starts: monte_carlo_rows) or Table 3 (table3_rows)."""
-        table = monte_carlo_rows(rows)
+        a combination has more than two starts: monte_carlo_rows) or Table 3 (table3_rows).
+        A campaign that flies several controller variants on the same starts (e.g.
+        los_monte_carlo_paper) gets one block of Monte Carlo rows per variant."""
+        variants = controller_variants(rows)
+        table = []
+        for label, group in variants.items():
+            block = monte_carlo_rows(group)
+            if block:
+                table += [[label, *line] for line in block] if len(variants) > 1 else block
         if table:
             title = (
                 "Paper 004 Sec. 9 beside this campaign: X_MC (the starts' outcomes by Sibson "
@@ -206,7 +213,7 @@ class LosCorridorPlugin(ControllerPlugin):
             )
             header = ["omega_t deg/s", "a_max m/s^2", "feasible starts", "X_MC %"]
             header += ["X_nom % (paper)", "X_stoch %", "X_rob %", "X_nom not in X_MC"]
-            return title, header, table
+            return title, ["controller variant", *header] if len(variants) > 1 else header, table
         table = table3_rows(rows)
         if not table:
             return None
@@ -386,6 +393,29 @@ def table3_rows(rows: list[dict]) -> list[list[str]] | None:
             ]
         )
     return table
+
+
+# Overrides that place a run in the Monte Carlo (its combination and start), not its controller.
+_PER_START = (
+    "target.w_IT_T_deg_s",
+    "controller.a_max_m_s2",
+    "controller.hold_distance_m",
+    "chaser.p_LC_L",
+)
+
+
+def controller_variants(rows: list[dict]) -> dict[str, list[dict]]:
+    """The rows split by what else their overrides set, each group labelled by it ('defaults'
+    for none): a campaign that flies two controllers on the same starts is two Monte Carlos."""
+    groups: dict[tuple, list[dict]] = {}
+    for row in rows:
+        overrides = row.get("overrides") or {}
+        key = tuple(sorted((k, repr(v)) for k, v in overrides.items() if k not in _PER_START))
+        groups.setdefault(key, []).append(row)
+    return {
+        ", ".join(f"{k.removeprefix('controller.')}={v}" for k, v in key) or "defaults": group
+        for key, group in groups.items()
+    }
 
 
 def monte_carlo_rows(rows: list[dict]) -> list[list[str]] | None:
