@@ -41,7 +41,8 @@ ignoring the corridor; not in the far regime, beyond r_sync, where no input keep
 the corridor (eq. 14) and an input that minimises the excursion over one horizon brakes it in T
 and so pushes it out on a spiral (Table 3's outside starts went 1.5-2.4x deeper with it). Only
 if that fails too, in the far regime, or with `mpc.corridor_penalty: 0` (the paper's chain) is
-the fallback applied: the previous plan's next input while it lasts, else braking to zero body-frame velocity within the box (eq. 11e). Beyond r_sync no
+the fallback applied: the previous plan's next input while it lasts, else braking to zero
+body-frame velocity within the box (eq. 11e). Beyond r_sync no
 input can stop the chaser in T (that is what eq. 14 says: the centripetal omega_t^2 r alone
 exceeds a_max / 2 r_sync / r), and there the QP is infeasible by construction; so in the far
 regime the last fallback is the far approach's own command (clipped to the box), which brings
