@@ -27,17 +27,18 @@ from rpod.scenarios.loader import load_scenario
 
 RESULTS = pathlib.Path(__file__).resolve().parent / "results" / "los_filter_study.md"
 COMMAND = "python benchmarks/study_los_filter.py"
-# (range m, angle off the axis as a fraction of the 30 deg half-angle)
+# What each column flies, first in the results file.
 FORMULATION = (
-    "Formulation: paper 004's guidance (Sec. 7 regimes, the MPC of eq. 11 with N_p = 40, R_du"
-    " = 1e4 I, the exact Jacobian of the J2 one-step map) in four set-ups: 'paper' (11d hard "
-    "and untightened at every step, a failed QP following the last plan to its end, no best-e"
-    "ffort QP; the close approach's reference 10 s ahead and the input weight centred on the "
-    "regime's command stay rpod's), 'rpod' (the defaults: 0.1 m tightening, a recovery funnel"
-    " over 10 steps, the best-effort QP within r_sync, then at most 5 steps of the last plan,"
-    " then the brake or the regime's command), 'rpod, no best-effort QP' (`mpc.corridor_penal"
-    "ty: 0`), and 'PD alone' (`filter: false`)."
+    "Formulation: paper 004's guidance (Sec. 7 regimes, the MPC of eq. 11 with N_p = 40, "
+    "R_du = 1e4 I, the exact Jacobian of the J2 one-step map) in four set-ups: 'paper' (11d "
+    "hard and untightened at every step, a failed QP following the last plan to its end, no "
+    "best-effort QP; the close approach's reference 10 s ahead and the input weight centred "
+    "on the regime's command stay rpod's), 'rpod' (the defaults: 0.1 m tightening, a recovery "
+    "funnel over 10 steps, the best-effort QP within r_sync, then at most 5 steps of the last "
+    "plan, then the brake or the regime's command), 'rpod, no best-effort QP' "
+    "(`mpc.corridor_penalty: 0`), and 'PD alone' (`filter: false`)."
 )
+# (range m, angle off the axis as a fraction of the 30 deg half-angle)
 STARTS = [(60, 0.0), (100, 0.2), (100, 0.6), (85, 0.75), (89, 0.9), (113, 0.9), (140, 0.5)]
 
 
