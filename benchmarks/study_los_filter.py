@@ -23,6 +23,7 @@ import sys
 from machine import machine_line, write_results  # benchmarks/machine.py, beside this script
 
 from rpod.diagrams.simulate import simulate
+from rpod.scenarios.campaign import apply_overrides
 from rpod.scenarios.loader import load_scenario
 
 RESULTS = pathlib.Path(__file__).resolve().parent / "results" / "los_filter_study.md"
@@ -40,6 +41,14 @@ FORMULATION = (
 )
 # (range m, angle off the axis as a fraction of the 30 deg half-angle)
 STARTS = [(60, 0.0), (100, 0.2), (100, 0.6), (85, 0.75), (89, 0.9), (113, 0.9), (140, 0.5)]
+# Issue 19's start: inside r_sync (82 m) but at rest in L, so 4.5 m/s across the turning
+# corridor; before the best-effort QP every hard QP failed and the far command flew it out.
+ISSUE_19 = {
+    "target.w_IT_T_deg_s": [0.0, 0.0, 4.0],
+    "controller.a_max_m_s2": 0.2,
+    "chaser.p_LC_L": [11.609571, 63.953919, 0.0],
+}
+NOTES = "What it shows."  # the hand-written reading of the table, kept on a rerun
 
 
 def setups(scenario):
@@ -84,6 +93,10 @@ def main() -> None:
         cells = [cell(simulate(case).summary) for _, case in setups(start)]
         rows.append(f"| {r} m, {fraction * 30:.0f} deg off the axis | " + " | ".join(cells) + " |")
         print(rows[-1], file=sys.stderr, flush=True)
+    cells = [cell(simulate(case).summary) for _, case in setups(apply_overrides(base, ISSUE_19))]
+    rows.append(
+        "| issue 19: 65 m, at rest in L, 4 deg/s, a_max 0.2 m/s^2 | " + " | ".join(cells) + " |"
+    )
     lines = [
         "# What the MPC filter buys (paper 004 as written, rpod's defaults, PD alone)",
         "",
@@ -93,13 +106,18 @@ def main() -> None:
         "",
         (
             "los_corridor (2 deg/s, 0.10 m/s^2, r_sync = 164 m; 600 s, J2 truth), each start at "
-            "rest in the target frame. Cell: deepest violation / hold at the end / delta-v."
+            "rest in the target frame, and the start of issue 19 (`rpod run los_corridor --set "
+            "'target.w_IT_T_deg_s=[0, 0, 4]' --set controller.a_max_m_s2=0.2 --set "
+            "'chaser.p_LC_L=[11.609571, 63.953919, 0]'`). Cell: deepest violation / hold at the "
+            "end / delta-v."
         ),
         "",
         "| start | paper's MPC | rpod's MPC | rpod's, no best-effort QP | PD alone |",
         "| --- | --- | --- | --- | --- |",
         *rows,
     ]
+    if RESULTS.exists() and NOTES in RESULTS.read_text():
+        lines += ["", NOTES + RESULTS.read_text().split(NOTES, 1)[1].rstrip("\n")]
     write_results(RESULTS, lines)
 
 
