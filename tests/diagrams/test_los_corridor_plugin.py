@@ -120,31 +120,36 @@ def test_table3_rows_pair_the_starts_and_sit_beside_the_paper():
     assert table3_rows([rows[2]]) is None
 
 
+def _mc_row(x, y, feasible, **extra_overrides):
+    """One finished Monte Carlo run at 2 deg/s and 0.10 m/s^2, started at (x, y) in T."""
+    overrides = {
+        "target.w_IT_T_deg_s": [0.0, 0.0, 2.0],
+        "controller.a_max_m_s2": 0.10,
+        "chaser.p_LC_L": [x, y, 0.0],
+        **extra_overrides,
+    }
+    return {
+        "run_id": f"{x}-{y}-{sorted(extra_overrides)}",
+        "status": "ok",
+        "overrides": overrides,
+        "metrics": {
+            "sim_time_s": 400.0,
+            "los_violation": not feasible,
+            "los_violation_depth_m": 0.0 if feasible else 3.0,
+            "stopped_early": None,
+            "los_sync_range_m": 164.1,
+            "los_start_inside_sync_range": True,
+            "los_held": feasible,
+            "los_min_range_m": 10.0,
+            "min_separation_m": 5.0,
+        },
+    }
+
+
 def test_a_monte_carlo_campaign_gets_the_sec_9_table_not_table_3():
     from rpod.diagrams.controllers.los_corridor import monte_carlo_rows, table3_rows
 
-    def row(x, y, feasible):
-        return {
-            "run_id": f"{x}-{y}",
-            "status": "ok",
-            "overrides": {
-                "target.w_IT_T_deg_s": [0.0, 0.0, 2.0],
-                "controller.a_max_m_s2": 0.10,
-                "chaser.p_LC_L": [x, y, 0.0],
-            },
-            "metrics": {
-                "sim_time_s": 400.0,
-                "los_violation": not feasible,
-                "los_violation_depth_m": 0.0 if feasible else 3.0,
-                "stopped_early": None,
-                "los_sync_range_m": 164.1,
-                "los_start_inside_sync_range": True,
-                "los_held": feasible,
-                "los_min_range_m": 10.0,
-                "min_separation_m": 5.0,
-            },
-        }
-
+    row = _mc_row
     rows = [row(-5.0, 40.0, True), row(0.0, 60.0, True), row(5.0, 80.0, False), row(0, 100, False)]
     (line,) = monte_carlo_rows(rows)
     assert line[:3] == ["2", "0.10", "2/4"]
@@ -159,34 +164,9 @@ def test_a_campaign_of_two_controllers_on_the_same_starts_gets_one_block_each():
     repeated sites and `rpod report` died)."""
     from rpod.diagrams.controllers.los_corridor import LosCorridorPlugin
 
-    def row(x, y, feasible, paper):
-        overrides = {
-            "target.w_IT_T_deg_s": [0.0, 0.0, 2.0],
-            "controller.a_max_m_s2": 0.10,
-            "chaser.p_LC_L": [x, y, 0.0],
-        }
-        if paper:
-            overrides["controller.mpc.margin_m"] = 0.0
-        return {
-            "run_id": f"{x}-{y}-{paper}",
-            "status": "ok",
-            "overrides": overrides,
-            "metrics": {
-                "sim_time_s": 400.0,
-                "los_violation": not feasible,
-                "los_violation_depth_m": 0.0 if feasible else 3.0,
-                "stopped_early": None,
-                "los_sync_range_m": 164.1,
-                "los_start_inside_sync_range": True,
-                "los_held": feasible,
-                "los_min_range_m": 10.0,
-                "min_separation_m": 5.0,
-            },
-        }
-
     starts = [(-5.0, 40.0, True), (0.0, 60.0, True), (5.0, 80.0, False), (0.0, 100.0, False)]
-    rows = [row(*start, paper=False) for start in starts]
-    rows += [row(x, y, False, paper=True) for x, y, _ in starts]
+    rows = [_mc_row(*start) for start in starts]
+    rows += [_mc_row(x, y, False, **{"controller.mpc.margin_m": 0.0}) for x, y, _ in starts]
     _, header, table = LosCorridorPlugin().campaign_table(rows)
     assert header[0] == "controller variant" and len(table) == 2
     assert table[0][:4] == ["defaults", "2", "0.10", "2/4"]
