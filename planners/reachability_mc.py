@@ -66,7 +66,12 @@ import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.spatial import ConvexHull, Delaunay, QhullError, cKDTree
 
-from rpod.models.los_corridor import VIOLATION_TOLERANCE_M, LosCorridor, sync_range_m
+from rpod.models.los_corridor import (
+    VIOLATION_TOLERANCE_M,
+    LosCorridor,
+    holding_range_m,
+    sync_range_m,
+)
 from rpod.planners import reachability as reach
 
 MC_Y_RANGE_M = (20.0, 300.0)  # Sec. 9: 15 values of y_T
@@ -571,26 +576,20 @@ def mc_report(
     return records
 
 
-# The bands of `holding_bands`: (name, lower bound, upper bound) as fractions of r_sync.
-HOLDING_BANDS = (
-    ("r <= r_hold", 0.0, 0.5),
-    ("r_hold < r <= r_sync", 0.5, 1.0),
-    ("r > r_sync", 1.0, math.inf),
-)
+HOLDING_BANDS = ("r <= r_hold", "r_hold < r <= r_sync", "r > r_sync")  # holding_bands' keys
 
 
 def holding_bands(records: list[McCombination]) -> dict[str, tuple[int, int]]:
     """{band: (feasible starts, starts)} over every combination, each start placed by its range
-    |p_T| against its combination's r_sync: inside the holding range r_hold = r_sync / 2
-    (rpod.models.los_corridor.holding_range_m), between it and r_sync, or beyond r_sync. Paper
-    004's conclusion 5 says a start inside r_sync can be held; the bands say where that holds."""
-    counts = {name: [0, 0] for name, _, _ in HOLDING_BANDS}
+    |p_T| against its combination's holding range r_hold (rpod.models.los_corridor.
+    holding_range_m) and r_sync. Paper 004's conclusion 5 says a start inside r_sync can be
+    held; the bands say where that holds."""
+    counts = {name: [0, 0] for name in HOLDING_BANDS}
     for record in records:
+        r_hold = holding_range_m(record.a_max_m_s2, math.radians(record.omega_deg))
         for start in record.starts:
-            fraction = float(np.linalg.norm(start.p_T)) / record.r_sync_m
-            for name, low, high in HOLDING_BANDS:
-                if low < fraction <= high or (low == 0.0 and fraction == 0.0):
-                    counts[name][0] += int(start.feasible)
-                    counts[name][1] += 1
-                    break
+            r = float(np.linalg.norm(start.p_T))
+            band = HOLDING_BANDS[0 if r <= r_hold else 1 if r <= record.r_sync_m else 2]
+            counts[band][0] += int(start.feasible)
+            counts[band][1] += 1
     return {name: (feasible, total) for name, (feasible, total) in counts.items()}

@@ -32,7 +32,7 @@ from rpod.diagrams.controller_seam import (
 )
 from rpod.diagrams.plots import chaser_in_target_frame
 from rpod.diagrams.plots_los import violation_summary
-from rpod.diagrams.scenario import ScenarioError
+from rpod.diagrams.scenario import ScenarioError, body_polytopes
 from rpod.models.frames import rotations_from_wxyz
 from rpod.models.los_corridor import (
     VIOLATION_TOLERANCE_M,
@@ -78,9 +78,12 @@ class LosCorridor(LosGuidanceConfig):
             raise ValueError(f"corridor_length_m: must be beyond the floor ({self.floor_m} m)")
 
 
-def _bounding_radius_m(size_m) -> float:
-    """The radius of the sphere about a box's centre that holds it: half its diagonal [m]."""
-    return 0.5 * float(np.linalg.norm(size_m))
+def _bounding_radius_sum_m(scenario) -> float:
+    """The radii of the spheres about the two bodies' centres that hold their true shapes,
+    added: closer than this, the bodies may touch [m]."""
+    return sum(
+        float(np.max(np.linalg.norm(shape.vertices, axis=1))) for shape in body_polytopes(scenario)
+    )
 
 
 def applied_acceleration_L(log: dict) -> np.ndarray:
@@ -152,8 +155,7 @@ class LosCorridorPlugin(ControllerPlugin):
                 config,
                 np.asarray(scenario.target.inertia_kg_m2),
                 scenario.orbit.gravity,
-                keep_out_m=_bounding_radius_m(scenario.target.size_m)
-                + _bounding_radius_m(scenario.chaser.size_m),
+                keep_out_m=_bounding_radius_sum_m(scenario),
             ),
         )
         builder.Connect(sensed, guidance.GetInputPort(SENSED_PORT))

@@ -342,15 +342,18 @@ def test_small_r_sync_is_all_extrapolated():
 
 
 def test_holding_bands_place_each_start_by_its_range_against_r_sync():
-    """r_sync = 100 m: starts at 30 and 50 m are within r_hold = 50 m, 70 and 100 m between
-    r_hold and r_sync, 150 m beyond; the feasible ones are counted per band."""
+    """r_sync = 100 m (a_max 0.1 m/s^2): starts at 30 and 49.9 m are within r_hold = 50 m, 70 and
+    99.9 m between r_hold and r_sync, 150 m beyond; the feasible ones are counted per band."""
 
     def start(y, feasible):
         return mc.McStart(2.0, 0.1, np.array([0.0, y, 0.0]), feasible, "", "id", "ok", {})
 
+    omega = math.sqrt(2 * 0.1 / 100.0)  # r_sync = 2 a_max / omega^2 = 100 m
     record = types.SimpleNamespace(
+        omega_deg=math.degrees(omega),
+        a_max_m_s2=0.1,
         r_sync_m=100.0,
-        starts=[start(30, True), start(50, False), start(70, True), start(100, False)]
+        starts=[start(30, True), start(49.9, False), start(70, True), start(99.9, False)]
         + [start(150, False)],
     )
     bands = mc.holding_bands([record])
