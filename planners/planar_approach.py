@@ -103,10 +103,27 @@ Methods (`solver`):
   (w_terminal_velocity 100 and 1000; a SOLVER_FAILED status), where SNOPT confirms it; with
   w_terminal_velocity = 0 IPOPT does.
 
+The paper's formulation as printed is `w_terminal_velocity=0, state_ii_heading=False`: eq. 5
+and the position-only switch (its plans can then overlap the target:
+benchmarks/results/planar_case1_study.md).
+
+The goal as constraints (`goal_constraint`, beyond the paper). Eq. 5 weighs the goal against
+the kinetic energy, so at a fast spin the plan stops short of a goal that runs away at
+omega_t d_goal (Case Study 1: 5 cm short at 0.36 rad/s, ~0.1-0.7 m beyond). With
+goal_constraint the plan's end is the docking state itself: p_N = p_goal and v_N = omega_t z x
+p_N (the docking face's velocity), each of the four rows with an L1-penalised slack
+(_GOAL_PENALTY per m and per m/s, above the constraints' multipliers and below the keep-out's),
+so it holds exactly wherever the thrust and the KOS allow and a duration that cannot reach
+the goal is GOAL_MISSED, not infeasible. The SCP carries it as these rows; the NLP as hard
+equalities (it starts from the SCP's answer).
+
 Duration search (Sec. III-A): the candidates are the times at which the target attitude equals
 theta_approach, T_m = ((theta_approach - theta_t0) sgn(omega) mod 2 pi + 2 pi m) / |omega|, within
 [duration_min_s, duration_max_s], the first `max_duration_candidates` of them, solved in
-ascending order; the best (least cost (5)) success is kept.
+ascending order; the best (least cost (5)) success is kept. The paper prints no count. When
+none of them reaches the goal, up to `max_extra_candidates` later ones are solved, in order,
+until one does (beyond the paper; 0 by default): thrusters too weak to catch a fast docking
+face in the first turns can in a later one.
 
 A plan must reach its goal (rpod's rule, not the paper's): a candidate whose solve converged
 but whose own end point p_N is farther than `goal_tolerance_m` (the mission's 5 cm) from
@@ -146,6 +163,10 @@ WARM_STARTS = ("scp", "guess")
 
 _SLACK_PENALTY = 1e4
 """L1 weight of the keep-out slacks (cost per metre of violation at one sample)."""
+_GOAL_PENALTY = 1e3
+"""L1 weight of the goal constraints' slacks (per m and per m/s; `goal_constraint`): an exact
+penalty (far above the constraints' multipliers, O(10) here) but below the keep-out's, so a
+duration that cannot reach the goal keeps out of the zone and misses the goal instead."""
 _SLACK_TOLERANCE_M = 1e-6
 """Slack left at convergence above which the KOS is reported unsatisfiable."""
 _LABEL_BAND = 0.1
@@ -190,6 +211,9 @@ class PlanarPlannerSettings:
         duration_min_s: Shortest candidate duration.
         duration_max_s: Longest candidate duration.
         max_duration_candidates: At most this many candidates, the shortest first.
+        max_extra_candidates: When none of those reaches the goal, solve up to this many of
+            the later candidates, in ascending order, up to the first that does (beyond the
+            paper; 0: none). Slow thrusters need long approaches at a fast spin.
         keepout_samples_per_step: Keep-out points per step, the knot included (>= 1); 0 for
             automatic (module docstring).
         solver: "scp", "ipopt" or "snopt" (module docstring).
@@ -200,6 +224,10 @@ class PlanarPlannerSettings:
         smooth_max_sharpness: Sharpness of the NLP's smooth half-ellipse terms.
         nlp_warm_start: Where "ipopt" and "snopt" start: "scp" (the SCP's answer, its labels)
             or "guess" (the spiral guess).
+        state_ii_heading: State II needs the heading condition (rpod's, module docstring);
+            False gives the paper's position-only switch (Sec. III-C as printed).
+        goal_constraint: The goal as terminal constraints (beyond the paper): p_N = p_goal
+            and v_N = omega_t z x p_N (the docking face's velocity), module docstring.
     """
 
     wrench_limit: str = "planar_8"
@@ -210,6 +238,7 @@ class PlanarPlannerSettings:
     duration_min_s: float = 1.0
     duration_max_s: float = 200.0
     max_duration_candidates: int = 3
+    max_extra_candidates: int = 0
     keepout_samples_per_step: int = 0
     solver: str = "scp"
     max_iterations: int = 40
@@ -218,6 +247,8 @@ class PlanarPlannerSettings:
     nlp_tolerance: float = 1e-6
     smooth_max_sharpness: float = 20.0
     nlp_warm_start: str = "scp"
+    state_ii_heading: bool = True
+    goal_constraint: bool = False
 
 
 @dataclasses.dataclass
@@ -279,6 +310,9 @@ class PlanarApproachConfig(PlanarPlannerSettings):
                 raise ValueError(f"{name}: must be a finite number, got {value!r}")
         if self.omega_target_rad_s == 0.0:
             raise ValueError("omega_target_rad_s: must be non-zero (the durations come from it)")
+        value = self.max_extra_candidates
+        if int(value) != value or value < 0:
+            raise ValueError(f"max_extra_candidates: must be an integer >= 0, got {value!r}")
         for name in ("w_u", "w_terminal_velocity", "duration_min_s", "goal_standoff_m"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
@@ -292,6 +326,10 @@ class PlanarApproachConfig(PlanarPlannerSettings):
             value = getattr(self, name)
             if int(value) != value or value < 1:
                 raise ValueError(f"{name}: must be a positive integer, got {value!r}")
+        for name in ("state_ii_heading", "goal_constraint"):
+            value = getattr(self, name)
+            if value is not True and value is not False:
+                raise ValueError(f"{name}: must be true or false, got {value!r}")
         value = self.keepout_samples_per_step
         if int(value) != value or value < 0:
             raise ValueError(f"keepout_samples_per_step: must be an integer >= 0, got {value!r}")
@@ -426,12 +464,14 @@ class PlanarPlan:
 # --------------------------------------------------------------------------- durations, guess
 
 
-def duration_candidates(config: PlanarApproachConfig) -> np.ndarray:
+def duration_candidates(config: PlanarApproachConfig, count: int | None = None) -> np.ndarray:
     """Durations T_m at which the target attitude is theta_approach (Sec. III-A), ascending.
 
     T_m = ((theta_approach - theta_t0) sgn(omega) mod 2 pi + 2 pi m) / |omega|, m = 0, 1, ...,
-    within [duration_min_s, duration_max_s], at most max_duration_candidates of them.
+    within [duration_min_s, duration_max_s], at most `count` of them (default
+    max_duration_candidates).
     """
+    count = config.max_duration_candidates if count is None else count
     w = abs(config.omega_target_rad_s)
     delta = (config.theta_approach_rad - config.theta_target0_rad) * math.copysign(
         1.0, config.omega_target_rad_s
@@ -441,7 +481,7 @@ def duration_candidates(config: PlanarApproachConfig) -> np.ndarray:
     m0 = max(0, math.ceil((config.duration_min_s - first) / period - 1e-12))
     out = []
     m = m0
-    while len(out) < config.max_duration_candidates:
+    while len(out) < count:
         t = first + m * period
         if t > config.duration_max_s + 1e-9:
             break
@@ -579,7 +619,10 @@ def _face_heading(config: PlanarApproachConfig, t: np.ndarray, theta_f: float) -
 
 def _aligned_samples(config, samples, theta: np.ndarray, t: np.ndarray) -> np.ndarray:
     """Samples whose step has the chaser's heading within the State II tolerance at both ends
-    (the heading error is linear in t along a step: theta and theta_t both are), bool."""
+    (the heading error is linear in t along a step: theta and theta_t both are), bool; all
+    True with the paper's position-only switch (state_ii_heading false)."""
+    if not config.state_ii_heading:
+        return np.ones(samples.size, dtype=bool)
     theta_t = pa.target_attitude(t, config.theta_target0_rad, config.omega_target_rad_s)
     error = np.abs(pa.face_heading_error(theta, theta_t))
     knot_ok = error <= config.geometry.alignment_tolerance_rad * (1.0 - _REGION_SHRINK)
@@ -738,6 +781,17 @@ class _TranslationScp:
                 is_convex=True,
             )
         prog.AddLinearCost(_SLACK_PENALTY * np.ones(samples.size), 0.0, self.S)
+        if config.goal_constraint:  # p_N = p_goal, v_N = omega_t z x p_N, exact L1 penalties
+            A_goal, b_goal = _goal_rows(config)
+            G = prog.NewContinuousVariables(4, "goal_slack")
+            eye = np.eye(4)
+            prog.AddLinearConstraint(
+                np.block([[A_goal, -eye], [A_goal, eye]]),
+                np.concatenate([np.full(4, -np.inf), b_goal]),
+                np.concatenate([b_goal, np.full(4, np.inf)]),
+                np.concatenate([self.P[N], self.V[N], G]),
+            )
+            prog.AddLinearCost(_GOAL_PENALTY * np.ones(4), 0.0, G)
         self.keepout = prog.AddLinearConstraint(
             sp.csc_matrix((1, 2 * (N + 1) + samples.size)),
             [-np.inf],
@@ -849,6 +903,18 @@ class _TranslationScp:
         return (get(self.P), get(self.V), get(self.F), get(self.S)), word
 
 
+def _goal_rows(config: PlanarApproachConfig) -> tuple[np.ndarray, np.ndarray]:
+    """(A, b) with A [p_N; v_N] = b meaning p_N = p_goal and v_N = omega_t z x p_N
+    (`goal_constraint`)."""
+    A = np.vstack(
+        [
+            np.hstack([np.eye(2), np.zeros((2, 2))]),
+            _relative_velocity_map(config.omega_target_rad_s),
+        ]
+    )
+    return A, np.concatenate([config.goal_position, np.zeros(2)])
+
+
 def _relative_velocity_map(omega_t: float) -> np.ndarray:
     """M with M [p_x, p_y, v_x, v_y] = v - omega_t z x p (the velocity seen from the target,
     expressed in W; its norm is the target frame's, Fig. 7)."""
@@ -878,6 +944,8 @@ def _solve_scp(config, x0, duration_s, guess):
     aligning = wanted  # the samples the attitude QP faces the docking face for
 
     def attitude_for(aligning, theta_bar):
+        if not config.state_ii_heading:  # the paper's switch: no heading asked of State II
+            return _attitude_qp(config, x0, theta_f, N, dt)
         align = _alignment_targets(samples, aligning, theta_bar, face, N)
         return _attitude_qp(config, x0, theta_f, N, dt, align)
 
@@ -1012,9 +1080,12 @@ def _nlp_program(config, x0, N, dt, samples, labels, theta_bar):
         M = _relative_velocity_map(config.omega_target_rad_s)
         Q_v = 2.0 * config.w_terminal_velocity * M.T @ M
         prog.AddQuadraticCost(Q_v, np.zeros(4), X[N, [0, 1, 3, 4]], is_convex=True)
+    if config.goal_constraint:  # hard here: the NLP starts from the SCP's answer
+        A_goal, b_goal = _goal_rows(config)
+        prog.AddLinearEqualityConstraint(A_goal, b_goal, X[N, [0, 1, 3, 4]])
     # State II only facing the docking face (module docstring).
     wanted = labels == pa.STATE_II
-    if np.any(wanted):
+    if np.any(wanted) and config.state_ii_heading:
         face = _face_heading(config, np.arange(N + 1) * dt, theta_f)
         knots, face = _alignment_targets(samples, wanted, theta_bar, face, N)
         bound = config.geometry.alignment_tolerance_rad * (1.0 - 10.0 * _REGION_SHRINK)
@@ -1116,7 +1187,10 @@ def plan_approach(config: PlanarApproachConfig, x0) -> PlanarPlan:
         )
         return _empty_plan(config, x0, PlanarPlanStatus.NO_CANDIDATE, word, [])
     records, best, missed = [], None, None
-    for duration in durations:
+    extra = duration_candidates(config, len(durations) + config.max_extra_candidates)
+    for duration in extra:
+        if len(records) >= len(durations) and best is not None:
+            break  # the extra candidates only until one reaches the goal
         record, X, U = _solve_candidate(config, x0, float(duration))
         records.append(record)
         if record.status == PlanarPlanStatus.SUCCESS and (
@@ -1141,7 +1215,8 @@ def plan_approach(config: PlanarApproachConfig, x0) -> PlanarPlan:
     theta_t = pa.target_attitude(t, config.theta_target0_rad, config.omega_target_rad_s)
     c, s = np.cos(theta_t), np.sin(theta_t)
     p_T = np.column_stack([c * X[:, 0] + s * X[:, 1], -s * X[:, 0] + c * X[:, 1]])
-    state = config.geometry.state(p_T, pa.face_heading_error(X[:, 2], theta_t)).astype(int)
+    heading = pa.face_heading_error(X[:, 2], theta_t) if config.state_ii_heading else None
+    state = config.geometry.state(p_T, heading).astype(int)
     return PlanarPlan(
         status=record.status,
         solver_message=record.solver_message,
@@ -1252,8 +1327,9 @@ def check_plan(plan: PlanarPlan, config: PlanarApproachConfig) -> dict:
     ct, st = np.cos(theta_t), np.sin(theta_t)
     p_T = np.column_stack([ct * p[:, 0] + st * p[:, 1], -st * p[:, 0] + ct * p[:, 1]])
     heading = (x_s[2] - theta_t) % (2.0 * math.pi) - math.pi  # wrap(theta - theta_t - pi)
-    q_values = config.geometry.q(p_T, heading)
-    state = config.geometry.state(p_T, heading)
+    switch_heading = heading if config.state_ii_heading else None  # the plan's formulation
+    q_values = config.geometry.q(p_T, switch_heading)
+    state = config.geometry.state(p_T, switch_heading)
     # The true squares at the same points (separating axes: the two squares' edge normals).
     phi = x_s[2] - theta_t
     half_c, half_t = 0.5 * config.chaser_side_m, 0.5 * config.target_side_m

@@ -30,7 +30,8 @@ Paper 003 uses no feed-forward: eq. 12 is the PD alone, and the planner's wrench
 the tracker. A feed-forward (the planner's world wrench) is accepted here as an option; it is
 added in L before the rotation of eq. 13. Outside the reference's time span the reference is its
 nearest end pose at rest (velocities 0) and the feed-forward is 0, so a finished reference is
-held as a station-keeping point.
+held as a station-keeping point. Given a release time, the tracker commands no wrench from
+then on (the errors are still computed and output): the chaser coasts.
 
 Gains (defaults, `critically_damped_gains`). Each axis is a double integrator
 (m for x and y, I_zz for theta) sampled with a zero-order hold at T. The gains put both
@@ -236,6 +237,7 @@ class PlanarTrackingController(LeafSystem):
         config: PlanarTrackingConfig,
         reference_state: PiecewisePolynomial,
         reference_wrench_L: PiecewisePolynomial | None = None,
+        release_time_s: float | None = None,
     ):
         """Builds the tracker.
 
@@ -245,6 +247,8 @@ class PlanarTrackingController(LeafSystem):
                 (theta need not be wrapped; a planner's continuous heading is fine).
             reference_wrench_L: Optional feed-forward [F_x, F_y, tau](t), 3 x 1, in L (None:
                 none, as in paper 003).
+            release_time_s: From this time on the tracker commands no wrench (the chaser is
+                released and coasts); None: it tracks to the end.
 
         Raises:
             ValueError: On a bad config or reference shape.
@@ -263,7 +267,10 @@ class PlanarTrackingController(LeafSystem):
                 "reference_wrench_L must be 3 x 1 [F_x, F_y, tau], got "
                 f"{reference_wrench_L.rows()} x {reference_wrench_L.cols()}"
             )
+        if release_time_s is not None and not math.isfinite(release_time_s):
+            raise ValueError(f"release_time_s must be finite or None, got {release_time_s!r}")
         self._config = config
+        self._release_time_s = release_time_s
         self._reference_state = reference_state
         self._reference_wrench = reference_wrench_L
 
@@ -313,6 +320,9 @@ class PlanarTrackingController(LeafSystem):
         x_ref, feedforward = self.reference_at(context.get_time())
         e = planar_tracking_error(x_ref, x)  # eq. 11
         wrench_L = planar_pd_wrench(e, self._config) + feedforward  # eq. 12 (+ feed-forward)
+        release = self._release_time_s
+        if release is not None and context.get_time() >= release - 1e-9:
+            wrench_L = np.zeros(3)  # released: the thrusters stay off
         body_wrench = body_wrench_from_planar(wrench_L, x[2])  # eq. 13
         state.get_mutable_discrete_state(self._held_index).set_value(
             np.concatenate([body_wrench, wrench_L, e, x_ref, x])

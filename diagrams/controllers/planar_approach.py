@@ -40,7 +40,13 @@ heading too), so the chaser synchronises with the docking face, as a capture nee
 the tracker's own behaviour: the final pose at rest in L. The planner has no terminal
 relative-velocity term (the paper says so, Sec. V-C); rpod's adds one (`w_terminal_velocity`,
 rpod.planners.planar_approach), so Sec. V-A's plan arrives at 0.003 m/s (0.014 m/s without);
-the co-rotating hold brings what is left towards zero.
+the co-rotating hold brings what is left towards zero. The hold needs m omega_t^2 |p_goal| of
+centripetal force, more than weak thrusters have at a fast spin (0.85 N at 0.485 rad/s against
+0.06 N along an axis with 0.03 N thrusters): then the PD saturates and the squares can touch.
+'release' stops commanding at T (the tracker's release time): a chaser that arrives
+synchronised with the face moves away from it on a straight line while both turn at omega_t,
+so the gap opens. 'auto' co-rotates where the hold needs at most HOLD_FORCE_SHARE (half) of the
+thrusters' force along an axis and releases otherwise (`planar_after_plan` says which flew).
 
 Heading (`attitude_reference`). 'plan' (default, the bundled scenario): the tracker follows
 the plan's heading, as the paper's eq. 12 does. The planner admits State II (the relaxed zone,
@@ -114,7 +120,10 @@ from rpod.planners.planar_approach import (
 from rpod.systems.planar_tracking import PlanarTrackingConfig, PlanarTrackingController
 from rpod.systems.sensed import SENSED_PORT
 
-AFTER_PLAN = ("co_rotate", "rest")
+AFTER_PLAN = ("co_rotate", "rest", "release", "auto")
+HOLD_FORCE_SHARE = 0.5
+"""'auto' co-rotates when the hold's centripetal force is at most this share of the thrusters'
+force along an axis (the rest is the tracker's), and releases the chaser otherwise."""
 ATTITUDE_REFERENCES = ("plan", "face_aligned")
 PLANAR_TOLERANCE = 1e-9  # z, roll, pitch, off-plane rates and inertia products must be 0 to this
 HOLD_KNOT_STEP_S = 0.02  # knots of the co-rotating hold (chord sag 0.1 mm at 2 rad/s, 0.5 m)
@@ -181,8 +190,10 @@ class PlanarApproach:
         position_bandwidth_rad_s: w_n of the critically damped position loops.
         attitude_bandwidth_rad_s: w_n of the attitude loop.
         feedforward: Add the planner's wrench to eq. 12 (the paper does not: False).
-        after_plan: What the reference is after the planned arrival: 'co_rotate' (the plan's
-            final pose fixed in the target frame) or 'rest' (the final pose at rest in L).
+        after_plan: What comes after the planned arrival: 'co_rotate' (the plan's final pose
+            fixed in the target frame), 'rest' (the final pose at rest in L), 'release' (no
+            thrust: the chaser coasts from the synchronised state) or 'auto' (co_rotate where
+            the hold needs at most HOLD_FORCE_SHARE of the thrusters' force, else release).
         goal_position_tolerance_m: Mission: chaser centre to x_goal at the arrival.
         goal_speed_tolerance_m_s: Mission: speed relative to the target frame at the arrival.
         goal_attitude_tolerance_deg: Mission: heading error to theta_finish at the arrival.
@@ -357,6 +368,8 @@ class PlanarApproachRun:
         reference: The tracker's reference x_ref(t) (6 x 1).
         feedforward: Its feed-forward wrench in L (3 x 1), or None.
         x0: The start state.
+        after_plan: What is flown after the arrival: 'co_rotate', 'rest' or 'release' ('auto'
+            resolved).
     """
 
     config: PlanarApproachConfig
@@ -365,6 +378,12 @@ class PlanarApproachRun:
     reference: PiecewisePolynomial
     feedforward: PiecewisePolynomial | None
     x0: np.ndarray
+    after_plan: str = "co_rotate"
+
+    @property
+    def release_time_s(self) -> float | None:
+        """When the tracker stops commanding (the arrival, with 'release'), else None."""
+        return self.arrival_s if self.after_plan == "release" else None
 
     @property
     def arrival_s(self) -> float:
@@ -389,8 +408,13 @@ def make_run(scenario) -> PlanarApproachRun:
     if not plan.flyable:  # hold the start pose, at rest
         hold = np.concatenate([x0[:3], np.zeros(3)])
         reference = PiecewisePolynomial.FirstOrderHold([0.0, 1.0], np.column_stack([hold, hold]))
-        return PlanarApproachRun(config, plan, check, reference, None, x0)
+        return PlanarApproachRun(config, plan, check, reference, None, x0, "rest")
     T = float(plan.duration_s)
+    after_plan = block.after_plan
+    if after_plan == "auto":
+        after_plan = (
+            "co_rotate" if hold_force_ratio(plan, config) <= HOLD_FORCE_SHARE else "release"
+        )
     if block.attitude_reference == "face_aligned":
         reference = face_aligned_reference(plan, config, block.align_time_s)
     else:
@@ -398,7 +422,7 @@ def make_run(scenario) -> PlanarApproachRun:
     if block.feedforward:
         feedforward = copy.copy(plan.wrench_traj)  # held on each step over [0, T]
     hold_s = max(scenario.duration_s - T, 0.0)
-    if block.after_plan == "co_rotate" and hold_s > 0.0:
+    if after_plan == "co_rotate" and hold_s > 0.0:
         hold = co_rotating_hold(plan.x_knots[-1], T, config.omega_target_rad_s, hold_s)
         reference.ConcatenateInTime(hold)
         if feedforward is not None:  # the centripetal force m omega^2 (-p), no torque
@@ -408,7 +432,14 @@ def make_run(scenario) -> PlanarApproachRun:
             feedforward.ConcatenateInTime(
                 PiecewisePolynomial.FirstOrderHold(hold.get_segment_times(), wrench)
             )
-    return PlanarApproachRun(config, plan, check, reference, feedforward, x0)
+    return PlanarApproachRun(config, plan, check, reference, feedforward, x0, after_plan)
+
+
+def hold_force_ratio(plan: PlanarPlan, config: PlanarApproachConfig) -> float:
+    """The co-rotating hold's centripetal force m omega_t^2 |p_N| over the thrusters' least
+    force (along an axis): above 1 the hold cannot be flown."""
+    radius = float(np.linalg.norm(plan.x_knots[-1, :2]))
+    return config.chaser_mass_kg * config.omega_target_rad_s**2 * radius / config.max_force_N
 
 
 # ------------------------------------------------------------------------------- results
@@ -606,6 +637,7 @@ def planar_summary(run: PlanarApproachRun, scenario, log: dict, extra: dict) -> 
         ),
         planar_final_hold_error_m=None,
         planar_hold_force_ratio=None,
+        planar_after_plan=run.after_plan,
         planar_goal_reached=False,
     )
     if not plan.flyable:
@@ -640,15 +672,8 @@ def planar_summary(run: PlanarApproachRun, scenario, log: dict, extra: dict) -> 
         planar_switches_to_arrival=switch_count(log, scenario, block.control_period_s, i),
         planar_state_ii_from_s=float(t[state_ii[0]]) if len(state_ii) else None,
     )
-    # The co-rotating hold's centripetal force against the thrusters' least force (along an
-    # axis): above 1 the hold cannot be flown.
-    summary["planar_hold_force_ratio"] = (
-        config.chaser_mass_kg
-        * config.omega_target_rad_s**2
-        * float(np.linalg.norm(plan.x_knots[-1, :2]))
-        / config.max_force_N
-    )
-    if block.after_plan == "co_rotate" and t[-1] > T:
+    summary["planar_hold_force_ratio"] = hold_force_ratio(plan, config)
+    if run.after_plan == "co_rotate" and t[-1] > T:
         # The hold point: the plan's final position turned with the target since T.
         turn = config.omega_target_rad_s * (t[-1] - T)
         c, s = math.cos(turn), math.sin(turn)
@@ -687,10 +712,13 @@ def outcome(summary: dict, block: PlanarApproach) -> MissionOutcome:
     )
     later = summary["planar_contact_after_arrival_s"]
     if later is not None:
-        tail += (
-            f"; contact after the arrival at {later:.2f} s (the co-rotating hold needs "
-            f"{summary['planar_hold_force_ratio']:.2g}x the thrusters' force)"
+        why = (
+            "released at the arrival"
+            if summary["planar_after_plan"] == "release"
+            else f"the co-rotating hold needs {summary['planar_hold_force_ratio']:.2g}x the "
+            "thrusters' force"
         )
+        tail += f"; contact after the arrival at {later:.2f} s ({why})"
     missed = ""
     if not summary["planar_plan_success"]:  # flown, but the plan itself misses its goal
         missed = f"the plan missed its goal ({summary['planar_plan_message']}); "
@@ -900,7 +928,9 @@ class PlanarApproachPlugin(ControllerPlugin):
         run = make_run(scenario)
         tracker = builder.AddNamedSystem(
             self.system_name,
-            PlanarTrackingController(tracking_config(scenario), run.reference, run.feedforward),
+            PlanarTrackingController(
+                tracking_config(scenario), run.reference, run.feedforward, run.release_time_s
+            ),
         )
         tracker.planar_run = run  # read by results, planned_end_s and the scene
         tracker.planar_sensed = sensed  # the scene's KOS state reads the same bundle

@@ -286,6 +286,32 @@ def test_bundled_campaigns_hold_the_full_grids():
     assert isinstance(case1.base.controller, PlanarApproach)
 
 
+def test_the_case_study_1_study_campaigns_are_subsets_of_the_sweep():
+    """planar_case1_formulations: 200 points (every 2nd omega x every 8th F_thr), each under the
+    paper's formulation and rpod's; planar_case1_method: every point with omega <= 0.5 rad/s."""
+    full = load_campaign("planar_case1")
+    formulations = load_campaign("planar_case1_formulations")
+    omega_key, thrust_key = "target.w_IT_T_deg_s[2]", "thrusters.max_thrust_N"
+    assert formulations.grid[omega_key] == full.grid[omega_key][::2]
+    assert formulations.grid[thrust_key] == full.grid[thrust_key][::8]
+    runs = plan_runs(formulations)
+    assert len(runs) == 400
+    paper, rpod = (
+        apply_overrides(formulations.base, overrides).controller.planner
+        for _, overrides in formulations.cases
+    )
+    assert (paper.w_terminal_velocity, paper.state_ii_heading) == (0.0, False)
+    assert (rpod.w_terminal_velocity, rpod.state_ii_heading) == (1000.0, True)
+    assert not paper.goal_constraint and not rpod.goal_constraint
+    method = load_campaign("planar_case1_method")
+    low = [w for w in full.grid[omega_key] if math.radians(w) <= 0.5]
+    assert method.grid[omega_key] == low and len(low) == 19
+    assert method.grid[thrust_key] == full.grid[thrust_key]
+    block = method.base.controller
+    assert block.feedforward and block.after_plan == "auto"
+    assert block.planner.goal_constraint and block.planner.max_extra_candidates == 10
+
+
 @pytest.mark.slow
 def test_sec_va_is_flown_without_contact_to_the_goal():
     """The bundled scenario (Sec. V-A): RMS tracking error under 2 cm, no contact, the goal
@@ -358,3 +384,46 @@ def test_contact_in_the_hold_is_contact_of_the_run():
     assert summary["planar_contact"] is True and summary["planar_safe"] is False
     assert summary["planar_contact_after_arrival_s"] == pytest.approx(20.37, abs=0.01)
     assert summary["mission"]["success"] is False
+
+
+# A Case Study 1 point (0.36 rad/s, 0.3 N) where the paper's flight fails: eq. 5's plan ends
+# 5.2 cm from the goal, and the co-rotating hold would need 0.78x the thrusters' force.
+CASE_1_POINT = {
+    "target.w_IT_T_deg_s[2]": math.degrees(0.36),
+    "thrusters.max_thrust_N": 0.3,
+    "log_period_s": 0.1,
+}
+METHOD = {
+    "controller.feedforward": True,
+    "controller.after_plan": "auto",
+    "controller.planner.goal_constraint": True,
+    "controller.planner.max_extra_candidates": 10,
+}
+
+
+def test_the_method_reaches_the_goal_and_releases_where_the_hold_cannot_be_flown():
+    """campaign planar_case1_method's settings on one point: the plan reaches the goal, the
+    flight arrives within the mission's tolerances, 'auto' releases the chaser (the hold needs
+    more than half the force) and the squares never touch, also after the arrival."""
+    summary = simulate(_scenario(**CASE_1_POINT, **METHOD)).summary
+    assert (
+        summary["planar_plan_success"] and summary["planar_plan_terminal_position_error_m"] < 1e-6
+    )
+    assert summary["planar_hold_force_ratio"] > 0.5
+    assert summary["planar_after_plan"] == "release"
+    assert summary["planar_terminal_position_error_m"] < 0.02
+    assert summary["planar_terminal_relative_speed_m_s"] < 0.01
+    assert not summary["contact"]["occurred"]
+    assert summary["mission"]["success"] is True
+    # The same point as the paper flies it (no feed-forward, soft goal): not a success.
+    assert simulate(_scenario(**CASE_1_POINT)).summary["mission"]["success"] is False
+
+
+def test_auto_co_rotates_where_the_hold_is_within_half_the_force():
+    # 0.2 rad/s at 0.36 m: 0.144 N of centripetal force, 0.24x the 0.6 N of 0.3 N thrusters
+    # (co-rotate), 2.4x the 0.06 N of the bundled 0.03 N (release).
+    auto = {"controller.after_plan": "auto"}
+    run = make_run(_scenario(**SHORT, **auto, **{"thrusters.max_thrust_N": 0.3}))
+    assert run.after_plan == "co_rotate" and run.release_time_s is None
+    run = make_run(_scenario(**SHORT, **auto))
+    assert run.after_plan == "release" and run.release_time_s == pytest.approx(run.arrival_s)

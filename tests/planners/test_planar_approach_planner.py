@@ -123,6 +123,78 @@ def test_the_terminal_velocity_term_synchronises_the_arrival():
     assert speeds[0] > 0.01 and speeds[1] < 0.4 * speeds[0]
 
 
+def test_the_papers_position_only_switch_lets_the_plan_overlap_the_target():
+    # Sec. III-C as printed (State II by position alone) with eq. 5: Sec. V-A's plan is
+    # feasible for its own KOS, but the true squares overlap before the arrival (the chaser
+    # enters the relaxed zone still turned away from the docking face); rpod's heading
+    # condition keeps them apart (test_sec_v_a_plans_and_passes_the_checker).
+    config = PlanarApproachConfig(
+        w_terminal_velocity=0.0,
+        state_ii_heading=False,
+        duration_min_s=80.0,
+        max_duration_candidates=1,
+    )
+    plan = plan_approach(config, X0)
+    assert plan.success, plan.solver_message
+    report = check_plan(plan, config)
+    assert report["keepout_q_m"] >= -1e-9  # its own (position-only) KOS holds
+    assert report["squares_gap_m"] < -0.01  # the squares overlap by more than a centimetre
+    assert not report["passed"]
+
+
+def test_the_goal_constraint_reaches_the_goal_where_eq_5_misses_it():
+    # 0.36 rad/s, planar_8 with 0.3 N thrusters, the 24 s candidate: eq. 5's weights end the
+    # plan 5.2 cm from the goal (GOAL_MISSED); as terminal constraints it ends there,
+    # synchronised with the face.
+    max_force, max_torque = pa.planar_8_wrench_limits(0.3, 0.3)
+    common = {
+        "omega_target_rad_s": 0.36,
+        "max_force_N": max_force,
+        "max_torque_Nm": max_torque,
+        "duration_min_s": 20.0,
+        "max_duration_candidates": 1,
+    }
+    soft = plan_approach(PlanarApproachConfig(**common), X0)
+    assert soft.status == PlanarPlanStatus.GOAL_MISSED and soft.terminal_position_error_m > 0.05
+    config = PlanarApproachConfig(goal_constraint=True, max_extra_candidates=5, **common)
+    plan = plan_approach(config, X0)
+    assert plan.success, plan.solver_message
+    assert len(plan.candidates) == 1  # extra candidates only when none reaches the goal
+    report = check_plan(plan, config)
+    assert report["passed"], report
+    assert report["terminal_position_error_m"] < 1e-6
+    assert report["terminal_relative_speed_m_s"] < 1e-6
+
+
+def test_extra_candidates_until_one_reaches_the_goal():
+    # 0.06 N per axis cannot reach a face turning at 0.36 rad/s in the first candidate (the
+    # goal moves at 0.13 m/s): the search goes on to a longer one that does, and stops there.
+    max_force, max_torque = pa.planar_8_wrench_limits(0.3, 0.03)
+    common = {
+        "omega_target_rad_s": 0.36,
+        "max_force_N": max_force,
+        "max_torque_Nm": max_torque,
+        "max_duration_candidates": 1,
+        "goal_constraint": True,
+    }
+    first = plan_approach(PlanarApproachConfig(**common), X0)
+    assert first.status == PlanarPlanStatus.GOAL_MISSED
+    config = PlanarApproachConfig(max_extra_candidates=10, **common)
+    plan = plan_approach(config, X0)
+    assert plan.success, plan.solver_message
+    assert [c.status for c in plan.candidates[:-1]] == [PlanarPlanStatus.GOAL_MISSED] * (
+        len(plan.candidates) - 1
+    )
+    assert plan.duration_s == pytest.approx(plan.candidates[-1].duration_s)
+    np.testing.assert_allclose(
+        [c.duration_s for c in plan.candidates],
+        duration_candidates(dataclasses.replace(config, max_duration_candidates=20))[
+            : len(plan.candidates)
+        ],
+    )
+    assert check_plan(plan, config)["passed"]
+
+
 def test_sec_v_a_trajectories(sec_v_a):
     _, plan = sec_v_a
     assert isinstance(plan.x_traj, PiecewisePolynomial)
@@ -171,6 +243,9 @@ def test_no_candidate_duration():
         ("nlp_warm_start", "zero"),
         ("max_duration_candidates", 0),
         ("duration_min_s", 500.0),
+        ("max_extra_candidates", -1),
+        ("goal_constraint", 1),
+        ("state_ii_heading", "no"),
     ],
 )
 def test_bad_fields_raise_naming_the_field(field, value):

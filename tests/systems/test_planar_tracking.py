@@ -176,6 +176,21 @@ def test_feedforward_passes_through_and_the_reference_is_held_at_rest_outside_it
     np.testing.assert_allclose(out["reference_state"], [0, 0, heading, 0, 0, 0], atol=1e-15)
 
 
+def test_a_released_tracker_commands_nothing_from_the_release_on():
+    reference = _constant([0.5, 0.0, 0.0, 0.0, 0.0, 0.0])
+    off = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]  # 0.5 m from the reference
+    controller = PlanarTrackingController(GAINS, reference, release_time_s=2.0)
+    before = _outputs(controller, _sensed(off), t=1.9)
+    assert before["planar_wrench_L"][0] == pytest.approx(GAINS.position_kp_N_per_m * 0.5)
+    for t in (2.0, 7.0):
+        out = _outputs(controller, _sensed(off), t=t)
+        np.testing.assert_array_equal(out["planar_wrench_L"], np.zeros(3))
+        np.testing.assert_array_equal(out["body_wrench_desired"], np.zeros(6))
+        assert out["tracking_error"][0] == pytest.approx(0.5)  # still measured
+    with pytest.raises(ValueError, match="release_time_s"):
+        PlanarTrackingController(GAINS, reference, release_time_s=math.nan)
+
+
 def test_critically_damped_gains_put_a_double_pole_at_exp_minus_wn_t():
     for inertia, w_n in ((10.0, 0.4), (0.15, 0.8), (500.0, 0.05)):
         kp, kd = critically_damped_gains(inertia, w_n, T)
