@@ -233,9 +233,15 @@ def main() -> None:
         curve = np.array(curves[name])
         peak = curve[np.argmax(curve[:, 1])]
         high = curve[curve[:, 0] >= PAPER_PLATEAU_FROM_RAD_S, 1]
+        reasons = defaultdict(int)
+        for row in all_rows:
+            if mission_success(row) is False:
+                reasons[_failure(row)] += 1
+        why = ", ".join(f"{k} {v}" for k, v in sorted(reasons.items())) or "none"
         lines.append("")
         lines.append(
-            f"- {name}: mission {_share(all_rows).percent_text()}; mean error peaks at "
+            f"- {name}: mission {_share(all_rows).percent_text()} (failed, by first reason: "
+            f"{why}); mean error peaks at "
             f"{peak[1]:.3f} m at {peak[0]:.3f} rad/s; from {PAPER_PLATEAU_FROM_RAD_S} rad/s "
             f"on it averages {high.mean():.3f} m (range {high.min():.3f}-{high.max():.3f})."
         )
