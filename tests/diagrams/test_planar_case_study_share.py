@@ -16,10 +16,12 @@ from rpod.diagrams.simulate import simulate
 from rpod.scenarios.campaign import apply_overrides, load_campaign
 
 
-def _mission_share(omega_step: int, thrusts_N: tuple[float, ...]) -> tuple[int, int, list]:
+def _mission_share(
+    omega_step: int, thrusts_N: tuple[float, ...], campaign: str = "planar_case1"
+) -> tuple[int, int, list]:
     """(successes, runs, [(omega deg/s, F_thr, plan status, success)]) over every
-    omega_step-th omega of the grid x the thrusts given."""
-    case1 = load_campaign("planar_case1")
+    omega_step-th omega of the campaign's grid x the thrusts given."""
+    case1 = load_campaign(campaign)
     rows = []
     for omega in case1.grid["target.w_IT_T_deg_s[2]"][::omega_step]:
         for thrust in thrusts_N:
@@ -52,3 +54,14 @@ def test_case_study_1_larger_subsample_mission_share():
     k, n, rows = _mission_share(4, (0.09, 0.36, 0.63, 0.90))
     assert n == 80
     assert 11 <= k <= 13, rows
+
+
+@pytest.mark.slow
+def test_case_study_1_method_subsample_mission_share():
+    """21 runs of campaign planar_case1_method (goal constraints, extra candidates,
+    feed-forward, after_plan auto): every 3rd omega_target of 0.035-0.485 rad/s x F_thr 0.03,
+    0.51, 1.02 N. The campaign measured these 21 points 21/21 (its whole grid 645/646,
+    benchmarks/results/planar_case1_study.md); one run of margin."""
+    k, n, rows = _mission_share(3, (0.03, 0.51, 1.02), "planar_case1_method")
+    assert n == 21
+    assert k >= 20, rows
