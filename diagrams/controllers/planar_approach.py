@@ -85,6 +85,7 @@ logger sample the same instant an ulp apart in some periods, rpod.systems.pwm).
 
 import copy
 import dataclasses
+import itertools
 import math
 
 import numpy as np
@@ -125,6 +126,8 @@ HOLD_FORCE_SHARE = 0.5
 """'auto' co-rotates when the hold's centripetal force is at most this share of the thrusters'
 force along an axis (the rest is the tracker's), and releases the chaser otherwise."""
 ATTITUDE_REFERENCES = ("plan", "face_aligned")
+UNRECORDED = "not recorded (runs stored before rpod recorded it)"
+"""The formulation of a stored run without `planar_formulation`."""
 PLANAR_TOLERANCE = 1e-9  # z, roll, pitch, off-plane rates and inertia products must be 0 to this
 HOLD_KNOT_STEP_S = 0.02  # knots of the co-rotating hold (chord sag 0.1 mm at 2 rad/s, 0.5 m)
 LOGGED = {
@@ -435,6 +438,26 @@ def make_run(scenario) -> PlanarApproachRun:
     return PlanarApproachRun(config, plan, check, reference, feedforward, x0, after_plan)
 
 
+def formulation_text(config: PlanarApproachConfig, block: PlanarApproach) -> str:
+    """The formulation a run planned and flew, in one line: the cost (eq. 5, with (5') and
+    its weight), the State II switch, the goal constraints, the candidates, the tracker."""
+    parts = [
+        "eq. 5"
+        if config.w_terminal_velocity == 0.0
+        else f"eq. 5 + (5') w_v {config.w_terminal_velocity:g}",
+        "State II facing the face" if config.state_ii_heading else "position-only switch",
+    ]
+    if config.goal_constraint:
+        parts.append("goal as constraints")
+    candidates = f"{config.max_duration_candidates} candidates"
+    if config.max_extra_candidates:
+        candidates += f" + up to {config.max_extra_candidates} more"
+    parts.append(candidates)
+    parts.append("PD + feed-forward" if block.feedforward else "PD")
+    parts.append(f"after the arrival: {block.after_plan}")
+    return ", ".join(parts)
+
+
 def hold_force_ratio(plan: PlanarPlan, config: PlanarApproachConfig) -> float:
     """The co-rotating hold's centripetal force m omega_t^2 |p_N| over the thrusters' least
     force (along an axis): above 1 the hold cannot be flown."""
@@ -605,6 +628,7 @@ def planar_summary(run: PlanarApproachRun, scenario, log: dict, extra: dict) -> 
         "planar_theta_approach_deg": math.degrees(config.theta_approach_rad),
         "planar_thrust_N": float(scenario.thrusters.max_thrust_N),
         "planar_modulation": scenario.thrusters.modulation,
+        "planar_formulation": formulation_text(config, block),
         "planar_chaser_side_m": config.chaser_side_m,
         "planar_goal_L": config.goal_position.tolist(),
         "planar_contact": contact,
@@ -779,7 +803,8 @@ def campaign_rows(rows: list[dict]) -> tuple[str, list[str], list[list[str]]] | 
 
     The title leads with the mission success share of the ok runs (Wilson 95 %), then the
     safety figures (planned to the goal and no contact in the whole run; contact), and names
-    the formulation: rpod's terminal-velocity term (5') and the State II heading condition.
+    the formulation each run recorded (`planar_formulation`); with several, the lines are
+    grouped by formulation, labelled A, B, ... in a first column.
     Varying modulation: one line per scheme (tracking error, terminal speed, fuel, switches).
     Else varying theta_approach (Case Study 2, Fig. 9): one line per theta; else varying
     omega_target (Case Study 1, Fig. 8): one line per omega. Each line: runs, planned
@@ -794,12 +819,16 @@ def campaign_rows(rows: list[dict]) -> tuple[str, list[str], list[list[str]]] | 
     )
     safe_share = SuccessShare(sum(bool(m.get("planar_safe")) for m in metrics), len(metrics))
     contact_share = SuccessShare(sum(bool(m.get("planar_contact")) for m in metrics), len(metrics))
+    formulations = sorted({m.get("planar_formulation") or UNRECORDED for m in metrics})
+    labels = {text: chr(ord("A") + i) for i, text in enumerate(formulations)}
+    if len(formulations) == 1:
+        named = f"Formulation: {formulations[0]}"
+    else:  # one group of lines per formulation, labelled
+        named = "Formulations: " + "; ".join(f"{labels[f]}: {f}" for f in formulations)
     lead = (
         f"mission success {mission.percent_text()} of the ok runs; safe (plan reached its goal, "
         f"no contact in the whole run) {safe_share.percent_text()}; contact "
-        f"{contact_share.percent_text()}. Formulation: rpod's, with the terminal-velocity term "
-        f"(5') and the State II heading condition (not the paper's eq. 5 and position-only "
-        f"switch)"
+        f"{contact_share.percent_text()}. {named}"
     )
     schemes = sorted({m["planar_modulation"] for m in metrics})
     if len(schemes) > 1:
@@ -840,11 +869,20 @@ def campaign_rows(rows: list[dict]) -> tuple[str, list[str], list[list[str]]] | 
     values = sorted({round(m[key], 6) for m in metrics})
     header = [label, "runs", "mission", "safe", "planned to the goal"]
     header += ["planned final error m (mean +- std)", "flown RMS tracking m"]
+    several = len(formulations) > 1
     table = []
-    for value in values:
-        group = [m for m in metrics if round(m[key], 6) == value]
+    for formulation, value in itertools.product(formulations, values):
+        group = [
+            m
+            for m in metrics
+            if round(m[key], 6) == value
+            and (m.get("planar_formulation") or UNRECORDED) == formulation
+        ]
+        if not group:
+            continue
         table.append(
-            [
+            [labels[formulation]] * several
+            + [
                 f"{value:g}",
                 str(len(group)),
                 _share([(m.get("mission") or {}).get("success") is True for m in group]),
@@ -856,7 +894,7 @@ def campaign_rows(rows: list[dict]) -> tuple[str, list[str], list[list[str]]] | 
         )
     case = "2 (Fig. 9)" if len(thetas) > 1 else "1 (Fig. 8)"
     title = f"Paper 003 Case Study {case} beside this campaign: {lead}:"
-    return title, header, table
+    return title, ["formulation"] * several + header, table
 
 
 # -------------------------------------------------------------------------------- plug-in

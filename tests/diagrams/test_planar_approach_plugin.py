@@ -258,8 +258,20 @@ def test_campaign_tables():
         "Paper 003 Case Study 1 (Fig. 8) beside this campaign: mission success 100.0 % (3/3"
     )
     assert "no contact in the whole run) 66.7 % (2/3" in title
-    assert "(5')" in title and "State II heading condition" in title
+    assert "Formulation: not recorded" in title  # rows stored before it was recorded
     assert [line[0] for line in table] == ["0.5", "1.5"]
+    # Two formulations on the same grid: grouped, labelled, each named in the title.
+    paper = "eq. 5, position-only switch, 3 candidates, PD, after the arrival: co_rotate"
+    rpod = "eq. 5 + (5') w_v 1000, State II facing the face, 3 candidates, PD, after the arrival: co_rotate"
+    mixed = [
+        _row(base, planar_omega_target_rad_s=w, planar_formulation=f)
+        for f in (rpod, paper)
+        for w in (0.5, 1.5)
+    ]
+    title, header, table = campaign_rows(mixed)
+    assert f"Formulations: A: {rpod}; B: {paper}" in title  # sorted
+    assert header[0] == "formulation"
+    assert [line[:2] for line in table] == [["A", "0.5"], ["A", "1.5"], ["B", "0.5"], ["B", "1.5"]]
     thetas = [_row(base, planar_theta_approach_deg=a) for a in (0.0, 180.0)]
     assert "Case Study 2" in campaign_rows(thetas)[0]
     assert campaign_rows([{"status": "ok", "metrics": {"capture_success": True}}]) is None
@@ -411,6 +423,10 @@ def test_the_method_reaches_the_goal_and_releases_where_the_hold_cannot_be_flown
     )
     assert summary["planar_hold_force_ratio"] > 0.5
     assert summary["planar_after_plan"] == "release"
+    assert summary["planar_formulation"] == (
+        "eq. 5 + (5') w_v 1000, State II facing the face, goal as constraints, 3 candidates + "
+        "up to 10 more, PD + feed-forward, after the arrival: auto"
+    )
     assert summary["planar_terminal_position_error_m"] < 0.02
     assert summary["planar_terminal_relative_speed_m_s"] < 0.01
     assert not summary["contact"]["occurred"]
