@@ -24,6 +24,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from machine import machine_line, write_results
 
+from rpod.diagrams.controllers.planar_approach import PlanarApproach
 from rpod.models import planar_approach as pa
 from rpod.models.statistics import SuccessShare
 from rpod.planners.planar_approach import PlanarApproachConfig, plan_approach
@@ -68,6 +69,9 @@ def _share(rows: list[dict]) -> SuccessShare:
     return SuccessShare(sum(judged), len(judged))
 
 
+MISSION = PlanarApproach()  # the campaigns keep the mission's default tolerances
+
+
 def _failure(row: dict) -> str:
     """A failed run's first reason, in a few words."""
     m = row["metrics"]
@@ -78,13 +82,22 @@ def _failure(row: dict) -> str:
     if m.get("planar_contact"):
         after = m.get("planar_contact_after_arrival_s")
         return "contact after the arrival" if after is not None else "contact before the arrival"
-    if m.get("planar_terminal_position_error_m", 0.0) > 0.05:
-        return "arrival > 5 cm from the goal"
-    if m.get("planar_terminal_relative_speed_m_s", 0.0) > 0.03:
-        return "arrival > 0.03 m/s relative"
-    if m.get("planar_terminal_attitude_error_deg", 0.0) > 5.0:
-        return "arrival > 5 deg off"
+    if m.get("planar_terminal_position_error_m", 0.0) > MISSION.goal_position_tolerance_m:
+        return f"arrival > {MISSION.goal_position_tolerance_m:g} m from the goal"
+    if m.get("planar_terminal_relative_speed_m_s", 0.0) > MISSION.goal_speed_tolerance_m_s:
+        return f"arrival > {MISSION.goal_speed_tolerance_m_s:g} m/s relative"
+    if m.get("planar_terminal_attitude_error_deg", 0.0) > MISSION.goal_attitude_tolerance_deg:
+        return f"arrival > {MISSION.goal_attitude_tolerance_deg:g} deg off"
     return "other"
+
+
+def _reasons(rows: list[dict]) -> str:
+    """The failed runs' first reasons with their counts, e.g. 'plan goal_missed 3'."""
+    counts = defaultdict(int)
+    for row in rows:
+        if mission_success(row) is False:
+            counts[_failure(row)] += 1
+    return ", ".join(f"{k} {v}" for k, v in sorted(counts.items())) or "none"
 
 
 def _sec_va_entry(**settings) -> dict:
@@ -182,9 +195,6 @@ def main() -> None:
             f"{paper_mean:.4f} | {solve:.1f} | "
             f"{np.mean(entries) if entries else math.nan:.1f} |"
         )
-    reasons = defaultdict(int)
-    for row in failed:
-        reasons[_failure(row)] += 1
     lines += [
         "",
         (
@@ -192,9 +202,7 @@ def main() -> None:
             f"over the points both flew): {'everywhere' if not worse else 'NOT at ' + str(worse)}."
         ),
         "",
-        "Failed runs by first reason: "
-        + (", ".join(f"{k} {v}" for k, v in sorted(reasons.items())) or "none")
-        + ".",
+        f"Failed runs by first reason: {_reasons(method_rows)}.",
     ]
     for row in failed[:8]:
         o = row["overrides"]
@@ -233,11 +241,7 @@ def main() -> None:
         curve = np.array(curves[name])
         peak = curve[np.argmax(curve[:, 1])]
         high = curve[curve[:, 0] >= PAPER_PLATEAU_FROM_RAD_S, 1]
-        reasons = defaultdict(int)
-        for row in all_rows:
-            if mission_success(row) is False:
-                reasons[_failure(row)] += 1
-        why = ", ".join(f"{k} {v}" for k, v in sorted(reasons.items())) or "none"
+        why = _reasons(all_rows)
         lines.append("")
         lines.append(
             f"- {name}: mission {_share(all_rows).percent_text()} (failed, by first reason: "

@@ -142,18 +142,24 @@ def test_the_papers_position_only_switch_lets_the_plan_overlap_the_target():
     assert not report["passed"]
 
 
+def _spin_036(thrust_N: float, **settings) -> dict:
+    """PlanarApproachConfig fields: 0.36 rad/s, planar_8 limits of thrust_N thrusters, one
+    candidate, and the settings given."""
+    max_force, max_torque = pa.planar_8_wrench_limits(0.3, thrust_N)
+    return {
+        "omega_target_rad_s": 0.36,
+        "max_force_N": max_force,
+        "max_torque_Nm": max_torque,
+        "max_duration_candidates": 1,
+        **settings,
+    }
+
+
 def test_the_goal_constraint_reaches_the_goal_where_eq_5_misses_it():
     # 0.36 rad/s, planar_8 with 0.3 N thrusters, the 24 s candidate: eq. 5's weights end the
     # plan 5.2 cm from the goal (GOAL_MISSED); as terminal constraints it ends there,
     # synchronised with the face.
-    max_force, max_torque = pa.planar_8_wrench_limits(0.3, 0.3)
-    common = {
-        "omega_target_rad_s": 0.36,
-        "max_force_N": max_force,
-        "max_torque_Nm": max_torque,
-        "duration_min_s": 20.0,
-        "max_duration_candidates": 1,
-    }
+    common = _spin_036(0.3, duration_min_s=20.0)
     soft = plan_approach(PlanarApproachConfig(**common), X0)
     assert soft.status == PlanarPlanStatus.GOAL_MISSED and soft.terminal_position_error_m > 0.05
     config = PlanarApproachConfig(goal_constraint=True, max_extra_candidates=5, **common)
@@ -169,14 +175,7 @@ def test_the_goal_constraint_reaches_the_goal_where_eq_5_misses_it():
 def test_extra_candidates_until_one_reaches_the_goal():
     # 0.06 N per axis cannot reach a face turning at 0.36 rad/s in the first candidate (the
     # goal moves at 0.13 m/s): the search goes on to a longer one that does, and stops there.
-    max_force, max_torque = pa.planar_8_wrench_limits(0.3, 0.03)
-    common = {
-        "omega_target_rad_s": 0.36,
-        "max_force_N": max_force,
-        "max_torque_Nm": max_torque,
-        "max_duration_candidates": 1,
-        "goal_constraint": True,
-    }
+    common = _spin_036(0.03, goal_constraint=True)
     first = plan_approach(PlanarApproachConfig(**common), X0)
     assert first.status == PlanarPlanStatus.GOAL_MISSED
     config = PlanarApproachConfig(max_extra_candidates=10, **common)
