@@ -203,6 +203,19 @@ class ControllerPlugin:
         default)."""
         return []
 
+    log_shapes: dict = {}
+    """Log key -> its trailing shape, for the run figures' checks (rpod.diagrams.plots.RunLog):
+    None (one value per sample), k (k columns) or -1 (any number of columns)."""
+
+    def run_figures(self) -> dict:
+        """The controller's own figures of a run: {file name: draw(log, title)}, where `log` is
+        a rpod.diagrams.plots.RunLog and draw returns a matplotlib Figure, or None when the log
+        has no data for it. `rpod run` writes them beside the generic figures. None by default.
+
+        Import plotting code inside this method, not at module level: loading a scenario must
+        not import matplotlib."""
+        return {}
+
     make_plan = None  # optional: (scenario, closed_loop) -> a plan, for `rpod plan`
 
 
