@@ -38,10 +38,10 @@ from machine import machine_line, write_results  # benchmarks/machine.py, beside
 from rpod.models.planar_approach import planar_8_wrench_limits
 from rpod.planners.planar_approach import (
     PlanarApproachConfig,
-    check_plan,
     duration_candidates,
     plan_approach,
 )
+from rpod.planners.planar_approach_check import check_plan
 
 RESULTS = pathlib.Path(__file__).parent / "results" / "planar_nlp.md"
 X0 = np.array([1.0, 0.0, 0.0, 0.0, 0.0, 0.0])

@@ -1,5 +1,6 @@
-"""Paper 003's approach planner: the duration candidates by hand, the Sec. V-A plan checked by
-the independent checker, failures as statuses, the NLP solvers, and the checker's own teeth."""
+"""Paper 003's approach planner, the front door (rpod.planners.planar_approach): the duration
+candidates by hand, the Sec. V-A plan checked by the independent checker, the search over
+candidates, the trajectories, failures as statuses and the config."""
 
 import dataclasses
 import math
@@ -13,11 +14,10 @@ from rpod.models import planar_approach as pa
 from rpod.planners.planar_approach import (
     PlanarApproachConfig,
     PlanarPlanStatus,
-    check_plan,
     duration_candidates,
-    initial_guess,
     plan_approach,
 )
+from rpod.planners.planar_approach_check import check_plan
 
 X0 = np.array([1.0, 0.0, 0.0, 0.0, 0.0, 0.0])  # Sec. V-A: (1.0, 0.0) m, at rest
 
@@ -43,18 +43,6 @@ def test_duration_candidates_by_hand():
     # Already at theta_approach: m = 0 gives T = 0, below duration_min_s; the next period.
     there = dataclasses.replace(config, theta_target0_rad=0.75 * math.pi, max_duration_candidates=1)
     np.testing.assert_allclose(duration_candidates(there), [20.0 * math.pi])
-
-
-def test_the_guess_satisfies_eq_7_and_starts_at_x0():
-    config = PlanarApproachConfig()
-    X, U = initial_guess(config, X0, 20.0)
-    assert X.shape == (201, 6) and U.shape == (200, 3)
-    dt = 0.1
-    accel = U / np.array([10.0, 10.0, 0.15])
-    np.testing.assert_allclose(
-        X[1:], X[:-1] + dt * np.column_stack([X[:-1, 3:], accel]), atol=1e-12
-    )
-    np.testing.assert_array_equal(X[0], X0)
 
 
 def test_sec_v_a_plans_and_passes_the_checker(sec_v_a):
@@ -105,41 +93,6 @@ def test_sec_v_a_faces_the_docking_face_in_state_ii(sec_v_a):
     in_ii = plan.keepout_state == pa.STATE_II
     assert in_ii.sum() > 50
     assert error[in_ii].max() <= config.geometry.alignment_tolerance_rad
-
-
-def test_the_terminal_velocity_term_synchronises_the_arrival():
-    # The paper's eq. 5 (w_terminal_velocity = 0) against (5') on Sec. V-A's chosen duration.
-    speeds = []
-    for weight in (0.0, 1000.0):
-        config = PlanarApproachConfig(
-            w_terminal_velocity=weight, duration_min_s=80.0, max_duration_candidates=1
-        )
-        plan = plan_approach(config, X0)
-        assert plan.success, plan.solver_message
-        report = check_plan(plan, config)
-        assert report["passed"], report
-        speeds.append(report["terminal_relative_speed_m_s"])
-        assert (plan.cost_terms["terminal_velocity"] == 0.0) == (weight == 0.0)
-    assert speeds[0] > 0.01 and speeds[1] < 0.4 * speeds[0]
-
-
-def test_the_papers_position_only_switch_lets_the_plan_overlap_the_target():
-    # Sec. III-C as printed (State II by position alone) with eq. 5: Sec. V-A's plan is
-    # feasible for its own KOS, but the true squares overlap before the arrival (the chaser
-    # enters the relaxed zone still turned away from the docking face); rpod's heading
-    # condition keeps them apart (test_sec_v_a_plans_and_passes_the_checker).
-    config = PlanarApproachConfig(
-        w_terminal_velocity=0.0,
-        state_ii_heading=False,
-        duration_min_s=80.0,
-        max_duration_candidates=1,
-    )
-    plan = plan_approach(config, X0)
-    assert plan.success, plan.solver_message
-    report = check_plan(plan, config)
-    assert report["keepout_q_m"] >= -1e-9  # its own (position-only) KOS holds
-    assert report["squares_gap_m"] < -0.01  # the squares overlap by more than a centimetre
-    assert not report["passed"]
 
 
 def _spin_036(thrust_N: float, **settings) -> dict:
@@ -208,23 +161,6 @@ def test_sec_v_a_trajectories(sec_v_a):
     assert plan.theta_finish == pytest.approx(-0.25 * math.pi)
 
 
-def test_too_little_thrust_is_a_status_not_an_exception():
-    # 1e-5 N m cannot turn 10 kg m^2 / 66 by 135 deg in 23.6 s: the attitude QP is infeasible.
-    config = PlanarApproachConfig(max_force_N=1e-4, max_torque_Nm=1e-5, max_duration_candidates=1)
-    plan = plan_approach(config, X0)
-    assert plan.status == PlanarPlanStatus.INFEASIBLE and not plan.success
-    assert "Clarabel" in plan.solver_message and "Infeasible" in plan.solver_message
-    assert plan.x_traj is None and plan.wrench_traj is None
-    assert check_plan(plan, config)["passed"] is False
-
-
-def test_a_start_inside_the_target_is_infeasible():
-    config = PlanarApproachConfig(max_duration_candidates=1)
-    plan = plan_approach(config, [0.2, 0.05, 0.0, 0.0, 0.0, 0.0])
-    assert plan.status == PlanarPlanStatus.INFEASIBLE
-    assert "slack" in plan.solver_message
-
-
 def test_no_candidate_duration():
     config = PlanarApproachConfig(duration_min_s=1.0, duration_max_s=20.0)  # first is 23.6 s
     plan = plan_approach(config, X0)
@@ -261,93 +197,6 @@ def test_config_loads_from_yaml():
     )
     assert config.omega_target_rad_s == 0.5 and config.solver == "ipopt"
     assert config.max_force_N == 0.06 and config.w_goal == 100.0
-
-
-@pytest.mark.parametrize("solver", ["ipopt", "snopt"])
-def test_the_nlp_solvers_confirm_the_scp_answer(solver):
-    # A coarse step (N = 24) keeps it fast. The NLP polishes the SCP answer: the joint attitude
-    # and translation, the exact smooth KOS with a ~0.2 mm margin instead of polygons 0-0.25 mm
-    # larger and the SCP's 0.2 mm chord margin; the two costs agree to ~0.2 %. IPOPT on the
-    # paper's eq. 5 (w_terminal_velocity = 0): with (5')'s term Drake's IPOPT stops in "Error
-    # in step computation" here (a status; module docstring), SNOPT confirms the SCP answer.
-    weight = 0.0 if solver == "ipopt" else PlanarApproachConfig.w_terminal_velocity
-    base = PlanarApproachConfig(dt_s=1.0, max_duration_candidates=1, w_terminal_velocity=weight)
-    scp = plan_approach(base, X0)
-    config = dataclasses.replace(base, solver=solver)
-    plan = plan_approach(config, X0)
-    assert plan.success, plan.solver_message
-    assert "from the SCP answer" in plan.solver_message
-    assert plan.cost <= scp.cost * (1.0 + 1e-6)
-    assert plan.cost == pytest.approx(scp.cost, rel=3e-3)
-    assert check_plan(plan, config)["passed"]
-
-
-@pytest.mark.slow
-def test_ipopt_from_the_guess_returns_a_status():
-    # From the spiral guess Drake's IPOPT (quasi-Newton) struggles: ~10-30 s at N = 24 and a
-    # worse local answer or "local infeasibility" (module docstring). A status either way.
-    config = PlanarApproachConfig(
-        dt_s=1.0, max_duration_candidates=1, solver="ipopt", nlp_warm_start="guess"
-    )
-    plan = plan_approach(config, X0)
-    assert isinstance(plan.status, PlanarPlanStatus)
-    if plan.success:
-        assert check_plan(plan, config)["passed"]
-
-
-def test_the_box_limit_plans_within_its_box():
-    config = PlanarApproachConfig(
-        wrench_limit="box", max_force_N=0.06, max_torque_Nm=0.018, max_duration_candidates=1
-    )
-    plan = plan_approach(config, X0)
-    # A tenth of the force cannot reach the goal in the first candidate: the plan ends 0.164 m
-    # from it (measured), GOAL_MISSED and not a success, but within its box and the KOS.
-    assert plan.status == PlanarPlanStatus.GOAL_MISSED and not plan.success and plan.flyable
-    assert plan.terminal_position_error_m > config.goal_tolerance_m
-    assert f"ends {plan.terminal_position_error_m:.3f} m from the goal" in plan.solver_message
-    report = check_plan(plan, config)
-    assert report["passed"] and report["force_excess_N"] <= 1e-6
-    # The status is the tolerance's alone: the same plan is a success at 0.2 m.
-    looser = dataclasses.replace(config, goal_tolerance_m=0.2)
-    assert plan_approach(looser, X0).success
-
-
-def test_the_checker_finds_violations(sec_v_a):
-    config, plan = sec_v_a
-    # Straight through the target: KOS entries; wrench scaled 100x: beyond the limits; and a
-    # knot moved: an eq. 7 residual.
-    X = plan.x_knots.copy()
-    s = np.linspace(0.0, 1.0, len(X))[:, None]
-    X[:, :2] = (1 - s) * X0[:2] + s * np.array([-1.0, 0.0])
-    X[5, 0] += 0.01
-    bad = dataclasses.replace(
-        plan,
-        x_traj=PiecewisePolynomial.FirstOrderHold(plan.t_knots, X.T),
-        wrench_traj=PiecewisePolynomial.ZeroOrderHold(
-            plan.t_knots, 100.0 * np.vstack([plan.wrench_knots, np.zeros(3)]).T
-        ),
-    )
-    report = check_plan(bad, config)
-    assert not report["passed"]
-    assert report["keepout_violations"] > 0 and report["keepout_q_m"] < -0.3
-    assert report["euler_residual"] > 1e-3
-    assert report["force_excess_N"] > 0 or report["wrench_cut_excess_N"] > 0
-    assert report["allocation_residual"] > 1e-3
-    assert report["squares_gap_m"] < 0.0
-
-
-def test_the_checker_wants_the_heading_on_the_face_in_state_ii(sec_v_a):
-    # The same path with the heading turned 30 deg off from the plan's over the final
-    # approach: the relaxed zone is not the chaser's any more (State I there, q < 0), and the
-    # squares come within the 16 mm that an aligned chaser keeps.
-    config, plan = sec_v_a
-    X = plan.x_knots.copy()
-    X[plan.keepout_state == pa.STATE_II, 2] += math.radians(30.0)
-    turned = dataclasses.replace(plan, x_traj=PiecewisePolynomial.FirstOrderHold(plan.t_knots, X.T))
-    report = check_plan(turned, config)
-    assert not report["passed"]
-    assert report["keepout_q_m"] < -0.05 and report["state_ii_fraction"] == 0.0
-    assert report["squares_gap_m"] < check_plan(plan, config)["squares_gap_m"]
 
 
 def test_a_moving_start_and_a_backward_spin_plan_and_pass_the_checker():
