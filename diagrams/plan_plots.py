@@ -52,7 +52,7 @@ from mpl_toolkits.mplot3d import Axes3D  # noqa: F401  (registers the "3d" proje
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 from scipy.spatial import ConvexHull
 
-from rpod.diagrams.plots import _equal_aspect_3d, save_figure
+from rpod.diagrams.plots import equal_aspect_3d, save_figure
 from rpod.models.frames import rotations_from_wxyz
 
 _logger = logging.getLogger(__name__)
@@ -129,7 +129,7 @@ def _figure_trajectory(plan: Mapping, title: str) -> Figure:
     ax.set_ylabel("y (along-track) [m]")
     ax.set_zlabel("z (normal) [m]")
     ax.legend(loc="upper left", fontsize=8)
-    _equal_aspect_3d(ax, np.vstack([r, V_t @ R_LT[-1].T]))
+    equal_aspect_3d(ax, np.vstack([r, V_t @ R_LT[-1].T]))
 
     ax = fig.add_subplot(1, 2, 2, projection="3d")
     ax.set_title("in the target body frame T")
@@ -145,7 +145,7 @@ def _figure_trajectory(plan: Mapping, title: str) -> Figure:
     ax.set_xlabel("x_T [m]")
     ax.set_ylabel("y_T [m]")
     ax.set_zlabel("z_T [m]")
-    _equal_aspect_3d(ax, np.vstack([r_T, V_t]))
+    equal_aspect_3d(ax, np.vstack([r_T, V_t]))
     return fig
 
 
@@ -388,7 +388,7 @@ def _figure_scp_trajectory(iterates: Sequence[Mapping], title: str) -> Figure:
                 ax.legend(loc="upper left", fontsize=8)
     boxes = [[V_t, *paths], [V_t, *(p[min(tail, len(p) - 2) :] for p in paths)]]
     for index, ax in enumerate(fig.axes):  # made column by column: the same box in each row
-        _equal_aspect_3d(ax, np.vstack(boxes[index % 2]))
+        equal_aspect_3d(ax, np.vstack(boxes[index % 2]))
     return fig
 
 

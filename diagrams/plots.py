@@ -1,36 +1,41 @@
-"""PNG plots of a run's log: trajectories in L and T, thrust, thruster duty, separation.
+"""PNG plots of a run's log: the generic figures of every run, and the kit the methods draw with.
 
-Owns: `write_plots` (the `plots/*.png` of `rpod run`, DESIGN.md "Command line and outputs") and
-`chaser_in_target_frame` (p_TC_T from the logged attitudes). Does not own: the simulation or the
-log itself (the diagram builders), nor Meshcat recordings (rpod.diagrams.recording).
+Owns: `write_plots` (the `plots/*.png` of `rpod run`, DESIGN.md "Command line and outputs"), the
+generic figures below, and the public plotting kit (next section) with which a controller
+package draws its own figures. Does not own: any method's figures or log keys (each controller
+package's `figures.py`, reached through `ControllerPlugin.run_figures()` and `log_shapes`,
+rpod.diagrams.controller_seam), the simulation or the log itself, nor Meshcat recordings
+(rpod.diagrams.recording).
 
-Figures, one file each (`FIGURE_NAMES`):
+Generic figures, one file each (`FIGURE_NAMES`):
   trajectory_lvlh.png          chaser in LVLH (L): y-x (V-bar horizontal, R-bar vertical), y-z, 3-D;
                                start/end marked; the commanded hold point when logged.
   trajectory_target_body.png   chaser in the target body frame T: components vs time and a 3-D path.
   thrust.png                   body torque and force (chaser frame C) and propellant used vs time.
   duty.png                     thruster duty cycles and the on/off pattern vs time.
   separation.png               separation distance and range |p_LC_L| vs time.
-Paper 004's rotating-LOS-corridor figures (`LOS_FIGURE_NAMES`, drawn by rpod.diagrams.plots_los,
-only for a run that logged los_* keys):
-  los_corridor.png             range and regime, distance to each corridor face, commanded and
-                               applied acceleration, MPC status and fallback vs time.
-  los_body_frame.png           chaser path in T on the x_T-y_T and z_T-y_T planes with the wedge.
-Paper 001's coupled 6-DOF NMPC figures (`COUPLED_FIGURE_NAMES`, drawn by
-rpod.diagrams.plots_coupled, only for a run that logged coupled_eigenaxis_error_rad):
-  coupled_state.png            eigenaxis error, relative rate, feature-point distance and velocity.
-  coupled_thrusters.png        resultant force and torque, each thruster's magnitude and gimbal
-                               angle against their limits.
-  coupled_nmpc.png             LOS margin, NMPC solve time, status and fallback vs time.
-Paper 003's planar approach figures (`PLANAR_FIGURE_NAMES`, drawn by rpod.diagrams.plots_planar,
-only for a run that logged planar_flown_state): planar_path.png (Fig. 4), planar_thrusters.png
-(Fig. 5), planar_tracking.png (Fig. 6), planar_relative_velocity.png (Fig. 7).
+Then each plug-in's `run_figures()` (`write_plots(..., plugins=...)`; by default every registered
+plug-in), in the plug-ins' order: a figure whose log has no data for it is not written.
+
+The kit (public; a controller package imports these, never the private names):
+  RunLog(log, extra_shapes)    the usable arrays of a log: `GENERIC_SHAPES` plus a plug-in's
+                               `log_shapes` checked, `.get(key)`, `.t`, `.t_label`, `.when(i)`,
+                               `.p_TC_T()`.
+  figure_title, has_finite, equal_aspect_3d, mark_start_end, hold_points, envelope,
+  time_edges, grid, stacked_time_figure, heatmap, save_figure, DPI, COMPONENT_COLOURS
+                               titles, data checks, layout (margins in inches), dense series at
+                               screen resolution, the atomic PNG writer.
+  code_runs, code_bands, constant_value, draw_level, LEGEND_OUTSIDE
+                               status codes drawn as coloured strips (one rectangle per run of
+                               equal codes), reference levels, a legend right of its panel.
+  chaser_in_target_frame       p_TC_T from the logged attitudes (rpod.diagrams.target_frame).
 
 Decisions, written down as DESIGN.md asks:
-- Figures drawn by another module are registered here by a two-line wrapper that imports it when
-  first drawn (plots_los, plots_coupled and plots_planar import this module's helpers, so a module-level
-  import would be circular); their log keys are listed in `_SHAPES` with the others, so `_Log`
-  checks them alike.
+- A method's figures come through the seam: plots.py names no controller and imports none;
+  `run_figures()` imports its plotting module when called, so loading a scenario never imports
+  matplotlib. The log is checked once against the generic shapes and every given plug-in's
+  `log_shapes` (a key already declared keeps its first shape: the generic one, then the
+  plug-ins' in order); a figure name already taken is skipped with a warning.
 - matplotlib through `matplotlib.figure.Figure` + the Agg canvas, never pyplot: no global figure
   registry, no backend switching, safe to call from worker threads (sweeps).
 - Missing data is not an error: a key that is absent, has the wrong shape, has zero columns or a
@@ -46,9 +51,7 @@ Decisions, written down as DESIGN.md asks:
   of consecutive samples down to at most `MAX_HEATMAP_COLUMNS` columns; sample i is drawn over
   [t_i, t_{i+1}) (zero-order hold, as the duty is commanded), with pcolormesh so non-uniform
   sampling is drawn at its true times. Averaged on/off cells read as the fraction of time on.
-- p_TC_T = R_IT^T R_IL p_LC_L is computed with a vectorised numpy quaternion rotation (one call
-  per array instead of 2 N pydrake calls); the test checks it against pydrake's RotationMatrix.
-  Quaternions are (w, x, y, z) and normalised first; a zero or non-finite one gives NaN rows.
+- p_TC_T = R_IT^T R_IL p_LC_L: rpod.diagrams.target_frame (vectorised numpy quaternion rotation).
 - Log scale for separation/range when every value is positive and they span >= 2 decades. A
   separation <= 0 (contact or penetration) gets a zero line and, if the run still spans decades,
   a symlog scale, linear within max(penetration depth, 1e-4 x largest distance) of zero.
@@ -59,13 +62,16 @@ from __future__ import annotations
 import logging
 import os
 import uuid
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from mpl_toolkits.mplot3d import Axes3D  # noqa: F401  (registers the "3d" projection)
+
+from rpod.diagrams import controller_seam
+from rpod.diagrams.target_frame import chaser_in_target_frame  # in the kit too
 
 _logger = logging.getLogger(__name__)
 
@@ -76,22 +82,21 @@ FIGURE_NAMES = (
     "duty.png",
     "separation.png",
 )
-LOS_FIGURE_NAMES = ("los_corridor.png", "los_body_frame.png")
-COUPLED_FIGURE_NAMES = ("coupled_state.png", "coupled_thrusters.png", "coupled_nmpc.png")
-PLANAR_FIGURE_NAMES = (
-    "planar_path.png",
-    "planar_thrusters.png",
-    "planar_tracking.png",
-    "planar_relative_velocity.png",
-)
 MAX_DUTY_LINES = 6  # more thrusters than this: duty drawn as a heatmap
 MAX_HEATMAP_COLUMNS = 800  # time columns of a heatmap after block averaging
 MAX_LINE_BUCKETS = 1000  # dense time series drawn as the min/max envelope of this many runs
-_DPI = 100
-_COMPONENT_COLOURS = ("tab:red", "tab:green", "tab:blue")
+DPI = 100
+COMPONENT_COLOURS = ("tab:red", "tab:green", "tab:blue")
+LEGEND_OUTSIDE = {  # right of the panel: the time axis stays clear
+    "loc": "upper left",
+    "bbox_to_anchor": (1.005, 1.0),
+    "fontsize": 8,
+    "frameon": False,
+}
 
-# Expected trailing shape of each known key (None: one value per sample; -1: any column count).
-_SHAPES = {
+# Expected trailing shape of each generic key (None: one value per sample; -1: any column count).
+# A plug-in declares its own keys in `ControllerPlugin.log_shapes`, in the same form.
+GENERIC_SHAPES = {
     "t": None,
     "p_LC_L": 3,
     "v_LC_L": 3,
@@ -107,102 +112,31 @@ _SHAPES = {
     "body_wrench": 6,
     "propellant_kg": None,
     "separation_m": None,
-    "hold_point_L": 3,
+    "hold_point_L": 3,  # a commanded hold point, drawn in trajectory_lvlh.png
     "p_TC_T": 3,
-    # Paper 004's LOS-corridor guidance (rpod.diagrams.plots_los, which documents each key).
-    "los_range_m": None,
-    "los_sync_range_m": None,
-    "los_hold_point_T": 3,
-    "los_face_distance_m": -1,  # faces 1..n_f, then the floor
-    "los_command_L": 3,
-    "los_nominal_L": 3,
-    "los_applied_L": 3,
-    "los_regime": None,
-    "los_mpc_status": None,
-    "los_fallback": None,
-    "los_a_max_m_s2": None,
-    "los_half_angle_deg": None,
-    # Paper 001's coupled 6-DOF NMPC (rpod.diagrams.plots_coupled, which documents each key).
-    "coupled_eigenaxis_error_rad": None,
-    "coupled_w_TC_T_rad_s": 3,
-    "coupled_p_PtPc_T_m": 3,
-    "coupled_v_PtPc_T_m_s": 3,
-    "coupled_thruster_forces_C_N": -1,  # 3 per thruster
-    "coupled_force_C_N": 3,
-    "coupled_torque_C_Nm": 3,
-    "coupled_los_margin_m": None,
-    "coupled_max_thrust_N": None,
-    "coupled_gimbal_half_angle_rad": None,
-    "nmpc_status": None,
-    "nmpc_fallback": None,
-    "nmpc_solve_time_s": None,
-    # Paper 003's planar approach (rpod.diagrams.plots_planar, which documents each key).
-    "planar_flown_state": 6,
-    "planar_plan_state": 6,
-    "planar_position_error_m": None,
-    "planar_attitude_error_rad": None,
-    "planar_target_yaw_rad": None,
-    "planar_relative_velocity_T": 2,
-    "planar_keepout_state": None,
-    "planar_keepout_q_m": None,
-    "planar_goal_L": 2,
-    "planar_chaser_side_m": None,
-    "planar_target_side_m": None,
-    "planar_body_wrench_desired": 6,
 }
-
-
-# --------------------------------------------------------------------------------------------
-# Frames
-
-
-def _rotate(q_wxyz: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """R(q) v for rows of quaternions (..., 4) (w, x, y, z; normalised here) and vectors (..., 3).
-
-    v' = v + 2 w (u x v) + 2 u x (u x v), u the vector part of the unit quaternion.
-    """
-    q = np.asarray(q_wxyz, dtype=float)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        norm = np.linalg.norm(q, axis=-1, keepdims=True)
-        q = np.where((norm > 0.0) & np.isfinite(norm), q / norm, np.nan)
-    w = q[..., :1]
-    u = q[..., 1:]
-    uv = np.cross(u, v)
-    return v + 2.0 * w * uv + 2.0 * np.cross(u, uv)
-
-
-def chaser_in_target_frame(q_IT: np.ndarray, q_IL: np.ndarray, p_LC_L: np.ndarray) -> np.ndarray:
-    """p_TC_T = R_IT^T R_IL p_LC_L: the chaser position (from the target's origin) in frame T.
-
-    The LVLH origin is the target's centre of mass, so the point is the same and only the frame
-    changes. Vectorised over a leading time axis; single samples work too.
-
-    Args:
-        q_IT: Target attitude in I, (w, x, y, z), shape (N, 4) or (4,); need not be unit.
-        q_IL: LVLH attitude in I, (w, x, y, z), shape (N, 4) or (4,); need not be unit.
-        p_LC_L: Chaser position in L [m], shape (N, 3) or (3,).
-
-    Returns:
-        p_TC_T [m], shape (N, 3) (or (3,) for single samples). Rows whose quaternion has zero or
-        non-finite norm are NaN.
-    """
-    q_IT = np.asarray(q_IT, dtype=float)
-    p_TC_I = _rotate(q_IL, np.asarray(p_LC_L, dtype=float))
-    q_TI = q_IT * np.array([1.0, -1.0, -1.0, -1.0])  # conjugate: R_TI = R_IT^T
-    return _rotate(q_TI, p_TC_I)
 
 
 # --------------------------------------------------------------------------------------------
 # Log access
 
 
-class _Log:
-    """The usable arrays of a log, as float arrays with a common first axis N."""
+class RunLog:
+    """The usable arrays of a log, as float arrays with a common first axis N.
 
-    def __init__(self, log: Mapping[str, np.ndarray]):
+    Args:
+        log: Time series keyed by name, time as the first axis.
+        extra_shapes: Shapes of further keys (a plug-in's `log_shapes`), in the form of
+            `GENERIC_SHAPES`; a key that is there too keeps its generic shape.
+    """
+
+    def __init__(self, log: Mapping[str, np.ndarray], extra_shapes: Mapping | None = None):
         self.arrays: dict[str, np.ndarray] = {}
         raw = {}
-        for key, width in _SHAPES.items():
+        shapes = dict(GENERIC_SHAPES)
+        for key, width in (extra_shapes or {}).items():
+            shapes.setdefault(key, width)
+        for key, width in shapes.items():
             if key not in log:
                 continue
             try:
@@ -256,15 +190,17 @@ class _Log:
 # Helpers
 
 
-def _title(title: str, what: str) -> str:
+def figure_title(title: str, what: str) -> str:
+    """A figure's title: the run's title (e.g. the scenario name), a dash, what it shows."""
     return f"{title} — {what}" if title else what
 
 
-def _has_finite(*arrays: np.ndarray | None) -> bool:
+def has_finite(*arrays: np.ndarray | None) -> bool:
+    """True when any of the arrays (None: absent) holds a finite value."""
     return any(a is not None and np.isfinite(a).any() for a in arrays)
 
 
-def _equal_aspect_3d(ax, points: np.ndarray) -> None:
+def equal_aspect_3d(ax, points: np.ndarray) -> None:
     """Equal scale on the three axes, centred on the finite points' bounding box."""
     finite = points[np.isfinite(points).all(axis=1)]
     if not len(finite):
@@ -277,7 +213,7 @@ def _equal_aspect_3d(ax, points: np.ndarray) -> None:
     ax.set_box_aspect((1.0, 1.0, 1.0))
 
 
-def _start_end(ax, a, b, c=None) -> None:
+def mark_start_end(ax, a, b, c=None) -> None:
     """Marks the first and last finite samples of a path (2-D or 3-D)."""
     cols = (a, b) if c is None else (a, b, c)
     finite = np.flatnonzero(np.all([np.isfinite(x) for x in cols], axis=0))
@@ -288,7 +224,7 @@ def _start_end(ax, a, b, c=None) -> None:
     ax.plot(*(x[i1 : i1 + 1] for x in cols), "s", color="tab:red", ms=7, label="end", zorder=5)
 
 
-def _hold_points(hold: np.ndarray) -> np.ndarray:
+def hold_points(hold: np.ndarray) -> np.ndarray:
     """The distinct commanded hold points, in order (at most 20; else just the last)."""
     finite = hold[np.isfinite(hold).all(axis=1)]
     if not len(finite):
@@ -298,7 +234,7 @@ def _hold_points(hold: np.ndarray) -> np.ndarray:
     return distinct if len(distinct) <= 20 else finite[-1:]
 
 
-def _envelope(t: np.ndarray, y: np.ndarray, buckets: int = MAX_LINE_BUCKETS):
+def envelope(t: np.ndarray, y: np.ndarray, buckets: int = MAX_LINE_BUCKETS):
     """(t, y) of a dense series reduced to the min and max of each of `buckets` runs of samples,
     in time order: the same picture at screen resolution, a fraction of the drawing time.
 
@@ -330,7 +266,7 @@ def _envelope(t: np.ndarray, y: np.ndarray, buckets: int = MAX_LINE_BUCKETS):
     return t_out.reshape(shape), y_out.reshape(shape)
 
 
-def _time_edges(t: np.ndarray) -> np.ndarray:
+def time_edges(t: np.ndarray) -> np.ndarray:
     """Edges of the hold intervals [t_i, t_{i+1}); the last one lasts as long as the one before."""
     if len(t) == 1:
         return np.array([t[0], t[0] + 1.0])
@@ -339,7 +275,7 @@ def _time_edges(t: np.ndarray) -> np.ndarray:
 
 def _block_mean(t: np.ndarray, a: np.ndarray, max_columns: int) -> tuple[np.ndarray, np.ndarray]:
     """(time edges, values) of (N, n) samples averaged over blocks of k consecutive samples."""
-    edges = _time_edges(t)
+    edges = time_edges(t)
     k = max(1, -(-len(t) // max_columns))
     if k == 1:
         return edges, a
@@ -351,7 +287,7 @@ def _block_mean(t: np.ndarray, a: np.ndarray, max_columns: int) -> tuple[np.ndar
     return np.r_[edges[starts], edges[-1]], means
 
 
-def _grid(fig, nrows, ncols, left=0.85, right=0.25, bottom=0.6, top=0.75, **kwargs):
+def grid(fig, nrows, ncols, left=0.85, right=0.25, bottom=0.6, top=0.75, **kwargs):
     """A GridSpec with margins given in inches (a fixed layout: constrained layout costs ~40 %
     of the rendering time, and handles 3-D axes poorly)."""
     width, height = fig.get_size_inches()
@@ -366,18 +302,18 @@ def _grid(fig, nrows, ncols, left=0.85, right=0.25, bottom=0.6, top=0.75, **kwar
     )
 
 
-def _stacked_time_figure(log: _Log, title: str, heading: str, panels, draw) -> Figure:
+def stacked_time_figure(log: RunLog, title: str, heading: str, panels, draw) -> Figure:
     """A column of time panels sharing their time axis (the paper figures' layout).
 
     Args:
         panels: [(kind, relative height)], top to bottom.
         draw: draw(kind, ax, edges) fills one panel; a 'status' panel gets a time-only grid.
     """
-    edges = _time_edges(log.t)
+    edges = time_edges(log.t)
     heights = [h for _, h in panels]
-    fig = Figure(figsize=(13, 2.8 * sum(heights) + 1.3), dpi=_DPI)
-    fig.suptitle(_title(title, heading))
-    gs = _grid(fig, len(panels), 1, left=1.1, right=2.8, hspace=0.45, height_ratios=heights)
+    fig = Figure(figsize=(13, 2.8 * sum(heights) + 1.3), dpi=DPI)
+    fig.suptitle(figure_title(title, heading))
+    gs = grid(fig, len(panels), 1, left=1.1, right=2.8, hspace=0.45, height_ratios=heights)
     axes = []
     for i, (kind, _) in enumerate(panels):
         ax = fig.add_subplot(gs[i, 0], sharex=axes[0] if axes else None)
@@ -391,7 +327,8 @@ def _stacked_time_figure(log: _Log, title: str, heading: str, panels, draw) -> F
     return fig
 
 
-def _heatmap(fig, ax, cax, t_edges: np.ndarray, values: np.ndarray, label: str, cmap: str) -> None:
+def heatmap(fig, ax, cax, t_edges: np.ndarray, values: np.ndarray, label: str, cmap: str) -> None:
+    """(N, n) values in [0, 1] as n rows over the time edges, with a colour bar in cax."""
     n = values.shape[1]
     mesh = ax.pcolormesh(
         t_edges,
@@ -409,22 +346,83 @@ def _heatmap(fig, ax, cax, t_edges: np.ndarray, values: np.ndarray, label: str, 
     fig.colorbar(mesh, cax=cax, label=label)
 
 
+def code_runs(codes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(values, starts, stops) of the runs of equal consecutive codes: samples starts[k] up to
+    stops[k] - 1 hold values[k]. Codes are rounded to integers first; NaN samples are left out."""
+    c = np.round(np.asarray(codes, dtype=float))
+    change = np.flatnonzero((c[1:] != c[:-1]) | np.isnan(c[1:])) + 1
+    starts = np.r_[0, change]
+    stops = np.r_[change, len(c)]
+    keep = np.isfinite(c[starts])
+    return c[starts[keep]].astype(int), starts[keep], stops[keep]
+
+
+def constant_value(values: np.ndarray | None) -> float | None:
+    """The value of a series that holds one finite value throughout (up to round-off)."""
+    if values is None:
+        return None
+    finite = values[np.isfinite(values)]
+    if not len(finite):
+        return None
+    lo, hi = finite.min(), finite.max()
+    return float(np.median(finite)) if hi - lo <= 1e-9 * max(abs(hi), 1.0) else None
+
+
+def code_bands(
+    ax, edges, codes, styles, y=(0.0, 1.0), axes_y=True, alpha=1.0, percent=False
+) -> None:
+    """One rectangle per run of equal codes, coloured and labelled by `styles` (code: (label,
+    colour)); codes not in `styles` are not drawn. y in axes coordinates unless axes_y is False.
+    percent: each label gets the share of the samples holding the code.
+
+    Drawn with `broken_barh` over the time edges, so a switch lasting one sample still shows."""
+    values, starts, stops = code_runs(codes)
+    n = max(len(codes), 1)
+    for code, (label, colour) in styles.items():
+        mine = values == code
+        if not mine.any():
+            continue
+        x0, x1 = edges[starts[mine]], edges[stops[mine]]
+        if percent:
+            label = f"{label} ({100.0 * np.sum(stops[mine] - starts[mine]) / n:.3g} %)"
+        kwargs = {"transform": ax.get_xaxis_transform()} if axes_y else {}
+        ax.broken_barh(
+            np.column_stack([x0, x1 - x0]),
+            (y[0], y[1] - y[0]),
+            facecolors=colour,
+            edgecolors="none",
+            alpha=alpha,
+            label=label,
+            **kwargs,
+        )
+
+
+def draw_level(ax, t, values, **kwargs) -> None:
+    """A reference level: a horizontal line when constant, else its (enveloped) time series."""
+    if (c := constant_value(values)) is not None:
+        ax.axhline(c, **kwargs)
+    elif has_finite(values):
+        ax.plot(*envelope(t, values), **kwargs)
+
+
 # --------------------------------------------------------------------------------------------
 # Figures. Each returns a Figure, or None when there is nothing to draw.
 
 
-def _figure_trajectory_lvlh(log: _Log, title: str) -> Figure | None:
+def _figure_trajectory_lvlh(log: RunLog, title: str) -> Figure | None:
     p = log.get("p_LC_L")
-    if not _has_finite(p):
+    if not has_finite(p):
         return None
     hold = log.get("hold_point_L")
-    holds = _hold_points(hold) if hold is not None else np.empty((0, 3))
+    holds = hold_points(hold) if hold is not None else np.empty((0, 3))
     x, y, z = p.T
-    fig = Figure(figsize=(16, 5.4), dpi=_DPI)
+    fig = Figure(figsize=(16, 5.4), dpi=DPI)
     fig.suptitle(
-        _title(title, "Chaser in LVLH (L): x radial (R-bar), y along-track (V-bar), z orbit normal")
+        figure_title(
+            title, "Chaser in LVLH (L): x radial (R-bar), y along-track (V-bar), z orbit normal"
+        )
     )
-    gs = _grid(
+    gs = grid(
         fig, 1, 3, right=0.1, bottom=0.55, top=0.65, wspace=0.25, width_ratios=(1.0, 1.0, 1.15)
     )
     ax_yx = fig.add_subplot(gs[0, 0])
@@ -435,7 +433,7 @@ def _figure_trajectory_lvlh(log: _Log, title: str) -> Figure | None:
         (ax_yz, (y, z), ("y along-track (V-bar) [m]", "z orbit normal [m]")),
     ):
         ax.plot(h, v, color="tab:blue", lw=1.0, label="chaser")
-        _start_end(ax, h, v)
+        mark_start_end(ax, h, v)
         ax.plot([0.0], [0.0], "*", color="k", ms=11, label="target", zorder=4)
         if hold is not None:
             i_h, i_v = (1, 0) if ax is ax_yx else (1, 2)
@@ -458,11 +456,11 @@ def _figure_trajectory_lvlh(log: _Log, title: str) -> Figure | None:
     ax_yz.set_title("y-z plane (out-of-plane)")
     ax_yx.legend(loc="best", fontsize=8)
     ax_3d.plot(x, y, z, color="tab:blue", lw=1.0)
-    _start_end(ax_3d, x, y, z)
+    mark_start_end(ax_3d, x, y, z)
     ax_3d.plot([0.0], [0.0], [0.0], "*", color="k", ms=11)
     if len(holds):
         ax_3d.plot(holds[:, 0], holds[:, 1], holds[:, 2], "X", color="tab:purple", ms=9)
-    _equal_aspect_3d(ax_3d, np.vstack([p, np.zeros((1, 3)), holds]))
+    equal_aspect_3d(ax_3d, np.vstack([p, np.zeros((1, 3)), holds]))
     ax_3d.set_xlabel("x radial [m]")
     ax_3d.set_ylabel("y along-track [m]")
     ax_3d.set_zlabel("z normal [m]")
@@ -470,18 +468,20 @@ def _figure_trajectory_lvlh(log: _Log, title: str) -> Figure | None:
     return fig
 
 
-def _figure_trajectory_target_body(log: _Log, title: str) -> Figure | None:
+def _figure_trajectory_target_body(log: RunLog, title: str) -> Figure | None:
     p = log.p_TC_T()
-    if not _has_finite(p):
+    if not has_finite(p):
         return None
     t = log.t
-    fig = Figure(figsize=(15, 6.4), dpi=_DPI)
-    fig.suptitle(_title(title, "Chaser in the target body frame (T): p_TC_T = R_IT^T R_IL p_LC_L"))
-    gs = _grid(fig, 3, 2, right=0.1, top=0.65, hspace=0.12, wspace=0.12, width_ratios=(1.3, 1.0))
+    fig = Figure(figsize=(15, 6.4), dpi=DPI)
+    fig.suptitle(
+        figure_title(title, "Chaser in the target body frame (T): p_TC_T = R_IT^T R_IL p_LC_L")
+    )
+    gs = grid(fig, 3, 2, right=0.1, top=0.65, hspace=0.12, wspace=0.12, width_ratios=(1.3, 1.0))
     axes = [fig.add_subplot(gs[0, 0])]
     axes += [fig.add_subplot(gs[i, 0], sharex=axes[0]) for i in (1, 2)]
     for i, (ax, name) in enumerate(zip(axes, "xyz")):
-        ax.plot(t, p[:, i], color=_COMPONENT_COLOURS[i], lw=1.0)
+        ax.plot(t, p[:, i], color=COMPONENT_COLOURS[i], lw=1.0)
         ax.set_ylabel(f"p_TC_T {name} [m]")
         ax.grid(True, alpha=0.3)
         if i < 2:
@@ -490,9 +490,9 @@ def _figure_trajectory_target_body(log: _Log, title: str) -> Figure | None:
     axes[-1].set_xlabel(log.t_label)
     ax_3d = fig.add_subplot(gs[:, 1], projection="3d")
     ax_3d.plot(p[:, 0], p[:, 1], p[:, 2], color="tab:blue", lw=0.8)
-    _start_end(ax_3d, p[:, 0], p[:, 1], p[:, 2])
+    mark_start_end(ax_3d, p[:, 0], p[:, 1], p[:, 2])
     ax_3d.plot([0.0], [0.0], [0.0], "*", color="k", ms=11, label="target")
-    _equal_aspect_3d(ax_3d, np.vstack([p, np.zeros((1, 3))]))
+    equal_aspect_3d(ax_3d, np.vstack([p, np.zeros((1, 3))]))
     ax_3d.set_xlabel("x_T [m]")
     ax_3d.set_ylabel("y_T [m]")
     ax_3d.set_zlabel("z_T [m]")
@@ -501,20 +501,20 @@ def _figure_trajectory_target_body(log: _Log, title: str) -> Figure | None:
     return fig
 
 
-def _figure_thrust(log: _Log, title: str) -> Figure | None:
+def _figure_thrust(log: RunLog, title: str) -> Figure | None:
     wrench = log.get("body_wrench")
     prop = log.get("propellant_kg")
     panels = []
-    if _has_finite(wrench):
+    if has_finite(wrench):
         panels += [("force", wrench[:, 3:6]), ("torque", wrench[:, 0:3])]
-    if _has_finite(prop):  # the log's propellant_kg is already the mass used since t = 0
+    if has_finite(prop):  # the log's propellant_kg is already the mass used since t = 0
         panels.append(("propellant", prop))
     if not panels:
         return None
     t = log.t
-    fig = Figure(figsize=(12, 2.6 * len(panels) + 1.2), dpi=_DPI)
-    fig.suptitle(_title(title, "Chaser body wrench (in C) and propellant"))
-    gs = _grid(fig, len(panels), 1, hspace=0.3)
+    fig = Figure(figsize=(12, 2.6 * len(panels) + 1.2), dpi=DPI)
+    fig.suptitle(figure_title(title, "Chaser body wrench (in C) and propellant"))
+    gs = grid(fig, len(panels), 1, hspace=0.3)
     axes = []
     for i, (kind, values) in enumerate(panels):
         ax = fig.add_subplot(gs[i, 0], sharex=axes[0] if axes else None)
@@ -525,12 +525,12 @@ def _figure_thrust(log: _Log, title: str) -> Figure | None:
             ax.set_title(f"propellant used (total {np.nanmax(values):.4g} kg)", fontsize=10)
         else:
             symbol, unit = ("f", "N") if kind == "force" else ("τ", "N m")
-            t_env, y_env = _envelope(t, values)
+            t_env, y_env = envelope(t, values)
             for j, name in enumerate("xyz"):
                 ax.plot(
                     t_env[:, j],
                     y_env[:, j],
-                    color=_COMPONENT_COLOURS[j],
+                    color=COMPONENT_COLOURS[j],
                     lw=0.9,
                     label=f"{symbol}_{name}",
                 )
@@ -543,29 +543,29 @@ def _figure_thrust(log: _Log, title: str) -> Figure | None:
     return fig
 
 
-def _figure_duty(log: _Log, title: str) -> Figure | None:
+def _figure_duty(log: RunLog, title: str) -> Figure | None:
     duty = log.get("thruster_duty")
     # Samples of thruster_on taken slower than the PWM slots alias with the pulse pattern (a
     # log at period boundaries sees only the last slot): prefer the per-period delivered duty.
     delivered = log.get("thruster_delivered_duty")
-    on = delivered if _has_finite(delivered) else log.get("thruster_on")
-    duty = duty if _has_finite(duty) else None
-    on = on if _has_finite(on) else None
+    on = delivered if has_finite(delivered) else log.get("thruster_on")
+    duty = duty if has_finite(duty) else None
+    on = on if has_finite(on) else None
     if duty is None and on is None:
         return None
     t = log.t
     panels = [p for p in (("duty", duty), ("on", on)) if p[1] is not None]
-    fig = Figure(figsize=(12, 3.2 * len(panels) + 1.2), dpi=_DPI)
-    fig.suptitle(_title(title, "Thruster commands (thrusters K of the chaser)"))
+    fig = Figure(figsize=(12, 3.2 * len(panels) + 1.2), dpi=DPI)
+    fig.suptitle(figure_title(title, "Thruster commands (thrusters K of the chaser)"))
     # A narrow column for colour bars, so every panel keeps the same time axis.
-    gs = _grid(fig, len(panels), 2, right=0.9, hspace=0.3, wspace=0.02, width_ratios=(1.0, 0.015))
+    gs = grid(fig, len(panels), 2, right=0.9, hspace=0.3, wspace=0.02, width_ratios=(1.0, 0.015))
     axes = []
     for i, (kind, values) in enumerate(panels):
         ax = fig.add_subplot(gs[i, 0], sharex=axes[0] if axes else None)
         axes.append(ax)
         n = values.shape[1]
         if kind == "duty" and n <= MAX_DUTY_LINES:
-            t_env, y_env = _envelope(t, values)
+            t_env, y_env = envelope(t, values)
             for k in range(n):
                 ax.plot(t_env[:, k], y_env[:, k], lw=0.9, label=f"k={k}", drawstyle="steps-post")
             ax.set_ylim(-0.05, 1.05)
@@ -577,14 +577,14 @@ def _figure_duty(log: _Log, title: str) -> Figure | None:
             averaged = len(cells) < len(t)
             if kind == "duty":
                 label = "mean duty [-]" if averaged else "duty [-]"
-                _heatmap(fig, ax, fig.add_subplot(gs[i, 1]), edges, cells, label, "viridis")
+                heatmap(fig, ax, fig.add_subplot(gs[i, 1]), edges, cells, label, "viridis")
             elif delivered is not None:
-                _heatmap(
+                heatmap(
                     fig, ax, fig.add_subplot(gs[i, 1]), edges, cells, "delivered duty [-]", "Greys"
                 )
             else:
                 label = "fraction on [-]" if averaged else "on (1) / off (0)"
-                _heatmap(fig, ax, fig.add_subplot(gs[i, 1]), edges, cells, label, "Greys")
+                heatmap(fig, ax, fig.add_subplot(gs[i, 1]), edges, cells, label, "Greys")
         if kind == "duty" and log.get("thruster_force_C") is not None:
             panel_title = f"throttle |f_k| / f_max per gimbaled thruster ({n} thrusters, no PWM)"
         elif kind == "duty":
@@ -603,18 +603,18 @@ def _figure_duty(log: _Log, title: str) -> Figure | None:
     return fig
 
 
-def _figure_separation(log: _Log, title: str) -> Figure | None:
+def _figure_separation(log: RunLog, title: str) -> Figure | None:
     sep = log.get("separation_m")
     p = log.get("p_LC_L")
     rng = np.linalg.norm(p, axis=1) if p is not None else None
-    sep = sep if _has_finite(sep) else None
-    rng = rng if _has_finite(rng) else None
+    sep = sep if has_finite(sep) else None
+    rng = rng if has_finite(rng) else None
     if sep is None and rng is None:
         return None
     t = log.t
-    fig = Figure(figsize=(12, 5.0), dpi=_DPI)
-    fig.suptitle(_title(title, "Separation and range between chaser and target"))
-    ax = fig.add_subplot(_grid(fig, 1, 1, top=0.5)[0, 0])
+    fig = Figure(figsize=(12, 5.0), dpi=DPI)
+    fig.suptitle(figure_title(title, "Separation and range between chaser and target"))
+    ax = fig.add_subplot(grid(fig, 1, 1, top=0.5)[0, 0])
     if rng is not None:
         ax.plot(t, rng, color="tab:blue", lw=1.2, label="range |p_LC_L| (centre to centre)")
     if sep is not None:
@@ -646,79 +646,14 @@ def _figure_separation(log: _Log, title: str) -> Figure | None:
     return fig
 
 
-def _figure_los_corridor(log: _Log, title: str) -> Figure | None:
-    from rpod.diagrams.plots_los import figure_los_corridor  # here: plots_los imports this module
-
-    return figure_los_corridor(log, title)
-
-
-def _figure_los_body_frame(log: _Log, title: str) -> Figure | None:
-    from rpod.diagrams.plots_los import figure_los_body_frame  # here: plots_los imports this module
-
-    return figure_los_body_frame(log, title)
-
-
-def _figure_coupled_state(log: _Log, title: str) -> Figure | None:
-    from rpod.diagrams.plots_coupled import figure_coupled_state  # here: it imports this module
-
-    return figure_coupled_state(log, title)
-
-
-def _figure_coupled_thrusters(log: _Log, title: str) -> Figure | None:
-    from rpod.diagrams.plots_coupled import figure_coupled_thrusters  # here: it imports this module
-
-    return figure_coupled_thrusters(log, title)
-
-
-def _figure_coupled_nmpc(log: _Log, title: str) -> Figure | None:
-    from rpod.diagrams.plots_coupled import figure_coupled_nmpc  # here: it imports this module
-
-    return figure_coupled_nmpc(log, title)
-
-
-def _figure_planar_path(log: _Log, title: str) -> Figure | None:
-    from rpod.diagrams.plots_planar import figure_planar_path  # here: it imports this module
-
-    return figure_planar_path(log, title)
-
-
-def _figure_planar_thrusters(log: _Log, title: str) -> Figure | None:
-    from rpod.diagrams.plots_planar import figure_planar_thrusters  # here: it imports this module
-
-    return figure_planar_thrusters(log, title)
-
-
-def _figure_planar_tracking(log: _Log, title: str) -> Figure | None:
-    from rpod.diagrams.plots_planar import figure_planar_tracking  # here: it imports this module
-
-    return figure_planar_tracking(log, title)
-
-
-def _figure_planar_relative_velocity(log: _Log, title: str) -> Figure | None:
-    from rpod.diagrams.plots_planar import figure_planar_relative_velocity  # (imports this)
-
-    return figure_planar_relative_velocity(log, title)
-
-
-_FIGURES: dict[str, Callable[[_Log, str], Figure | None]] = {
+_FIGURES: dict[str, Callable[[RunLog, str], Figure | None]] = {
     "trajectory_lvlh.png": _figure_trajectory_lvlh,
     "trajectory_target_body.png": _figure_trajectory_target_body,
     "thrust.png": _figure_thrust,
     "duty.png": _figure_duty,
     "separation.png": _figure_separation,
-    "los_corridor.png": _figure_los_corridor,
-    "los_body_frame.png": _figure_los_body_frame,
-    "coupled_state.png": _figure_coupled_state,
-    "coupled_thrusters.png": _figure_coupled_thrusters,
-    "coupled_nmpc.png": _figure_coupled_nmpc,
-    "planar_path.png": _figure_planar_path,
-    "planar_thrusters.png": _figure_planar_thrusters,
-    "planar_tracking.png": _figure_planar_tracking,
-    "planar_relative_velocity.png": _figure_planar_relative_velocity,
 }
-assert tuple(_FIGURES) == (
-    FIGURE_NAMES + LOS_FIGURE_NAMES + COUPLED_FIGURE_NAMES + PLANAR_FIGURE_NAMES
-)
+assert tuple(_FIGURES) == FIGURE_NAMES
 
 
 # --------------------------------------------------------------------------------------------
@@ -732,13 +667,36 @@ def save_figure(fig: Figure, path: Path) -> None:
     tmp = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
     try:
         with open(tmp, "xb") as f:
-            fig.savefig(f, format="png", dpi=_DPI)
+            fig.savefig(f, format="png", dpi=DPI)
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)
 
 
-def write_plots(log: Mapping[str, np.ndarray], out_dir: Path, title: str = "") -> list[Path]:
+def _plugin_figures(plugins: Iterable) -> tuple[dict, dict]:
+    """(log shapes, figures) of the generic figures and the plug-ins' (module docstring)."""
+    shapes, figures = {}, dict(_FIGURES)
+    for plugin in plugins:
+        for key, width in plugin.log_shapes.items():
+            shapes.setdefault(key, width)
+        try:
+            drawn = plugin.run_figures()
+        except Exception:  # a side output: a plug-in's broken figures never cost the others
+            _logger.warning("plots: %s's figures unavailable", type(plugin).__name__, exc_info=True)
+            continue
+        for name, draw in drawn.items():
+            if name in figures:
+                _logger.warning(
+                    "plots: %s draws %s, already drawn; skipped", type(plugin).__name__, name
+                )
+                continue
+            figures[name] = draw
+    return shapes, figures
+
+
+def write_plots(
+    log: Mapping[str, np.ndarray], out_dir: Path, title: str = "", plugins: Iterable | None = None
+) -> list[Path]:
     """Writes the PNG figures of a run's log into out_dir (created if needed).
 
     Args:
@@ -746,21 +704,25 @@ def write_plots(log: Mapping[str, np.ndarray], out_dir: Path, title: str = "") -
             t (N) [s], p_LC_L (N, 3) [m], q_IT and q_IL (N, 4) (w, x, y, z), thruster_duty and
             thruster_on (N, n), body_wrench (N, 6) [N m, N] (torque then force, in C),
             propellant_kg (N), separation_m (N), optional hold_point_L (N, 3) and p_TC_T (N, 3);
-            paper 004's los_* keys (rpod.diagrams.plots_los), paper 001's coupled_* and nmpc_*
-            keys (rpod.diagrams.plots_coupled). Any key may be missing; what
-            cannot be drawn is skipped.
+            and the plug-ins' own keys (their `log_shapes`, documented in their figures
+            modules). Any key may be missing; what cannot be drawn is skipped.
         out_dir: Output folder, e.g. runs/<scenario>/plots.
         title: Prefix of every figure's title, e.g. the scenario name.
+        plugins: The controller plug-ins whose `run_figures()` are drawn too (None: every
+            registered one, rpod.diagrams.controller_seam.controller_plugins()).
 
     Returns:
-        The paths written, in `FIGURE_NAMES + LOS_FIGURE_NAMES + COUPLED_FIGURE_NAMES` order
-        (figures without data are not written).
+        The paths written, the generic figures first (`FIGURE_NAMES` order), then each
+        plug-in's in its order (figures without data are not written).
     """
+    if plugins is None:
+        plugins = controller_seam.controller_plugins()
+    shapes, figures = _plugin_figures(plugins)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    data = _Log(log)
+    data = RunLog(log, shapes)
     written = []
-    for name, make in _FIGURES.items():
+    for name, make in figures.items():
         path = out_dir / name
         try:
             fig = make(data, title) if data.n else None

@@ -1,13 +1,13 @@
 """PNG figures of paper 001's coupled 6-DOF NMPC (Sec. IV, Figs. 6-7), from a run's log.
 
 Owns: the figure functions `figure_coupled_state`, `figure_coupled_thrusters` and
-`figure_coupled_nmpc` (registered in rpod.diagrams.plots' `_FIGURES` and written by its
-`write_plots`), and `gimbal_face_angles`, the pure function that measures how far each
-thruster's force leans inside its gimbal pyramid (eq. 16). Does not own: the model (frames,
-constraints: rpod.models.coupled_relative, rpod.models.thrusters), the controller, the log (the
-coupled_nmpc plug-in), nor writing the files (plots.write_plots: atomic saves through
+`figure_coupled_nmpc` (`run_figures()`, which the plug-in's `run_figures()` hands
+rpod.diagrams.plots.write_plots), and `gimbal_face_angles`, the pure function that measures how
+far each thruster's force leans inside its gimbal pyramid (eq. 16). Does not own: the model
+(frames, constraints: rpod.models.coupled_relative, rpod.models.thrusters), the controller, the
+log (the coupled_nmpc plug-in), nor writing the files (plots.write_plots: atomic saves through
 `save_figure`, stale files removed, a figure that fails only warns, shapes checked by
-`plots._Log` against `plots._SHAPES`).
+`plots.RunLog` against the generic shapes and the plug-in's `log_shapes`).
 
 Log keys (N samples, time first; all drawn only when coupled_eigenaxis_error_rad is logged):
   coupled_eigenaxis_error_rad (N)      theta_c/t = acos((tr R_TC - 1) / 2) (eq. 5) [rad].
@@ -55,7 +55,7 @@ Decisions:
 - Log scale where it shows convergence: a positive series (eigenaxis error, norms, solve time)
   on a log axis when it spans >= 2 decades; signed components on a symlog axis, linear within
   1e-3 of the largest magnitude, when they span >= 2 decades beyond that.
-- Codes (status, fallback) are drawn as plots_los draws them: one rectangle per run of equal
+- Codes (status, fallback) are drawn with the kit's `code_bands`: one rectangle per run of equal
   consecutive values over its time edges, a marker at the start of every failure or fallback.
 """
 
@@ -70,21 +70,43 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
 from rpod.diagrams.plots import (
-    _COMPONENT_COLOURS,
-    _DPI,
-    _envelope,
-    _grid,
-    _has_finite,
-    _Log,
-    _stacked_time_figure,
-    _time_edges,
-    _title,
+    COMPONENT_COLOURS,
+    DPI,
+    LEGEND_OUTSIDE,
+    RunLog,
+    code_bands,
+    code_runs,
+    constant_value,
+    draw_level,
+    envelope,
+    figure_title,
+    grid,
+    has_finite,
+    stacked_time_figure,
+    time_edges,
 )
-from rpod.diagrams.plots_los import _LEGEND_OUTSIDE, _bands, _constant, _level, _runs
 from rpod.models import coupled_relative as cr
 from rpod.models.thrusters import ThrusterLayout, gimbaled_cuboid_8, thruster_frame_C
 
 _logger = logging.getLogger(__name__)
+
+
+FIGURE_NAMES = ("coupled_state.png", "coupled_thrusters.png", "coupled_nmpc.png")
+
+
+def run_figures() -> dict:
+    """The coupled NMPC's run figures: {file name: draw(log, title)} (read when called, so a patched figure is drawn)."""
+    return dict(
+        zip(
+            FIGURE_NAMES,
+            (
+                figure_coupled_state,
+                figure_coupled_thrusters,
+                figure_coupled_nmpc,
+            ),
+        )
+    )
+
 
 _MIN_FORCE_FRACTION = 1e-4  # of f_max: a smaller force's direction is not drawn
 _DECADES = 100.0  # a series spanning this ratio gets a log (or symlog) axis
@@ -163,7 +185,7 @@ def _rebuilt_layout() -> ThrusterLayout:
     return gimbaled_cuboid_8(size=cr.CHASER_SIZE_M)
 
 
-def _thruster_forces(log: _Log, count: int, warn: bool = False) -> np.ndarray | None:
+def _thruster_forces(log: RunLog, count: int, warn: bool = False) -> np.ndarray | None:
     """coupled_thruster_forces_C_N as (N, n, 3), when it has 3 columns per thruster."""
     F = log.get("coupled_thruster_forces_C_N")
     if F is None:
@@ -179,12 +201,12 @@ def _thruster_forces(log: _Log, count: int, warn: bool = False) -> np.ndarray | 
     return F.reshape(len(F), -1, 3)
 
 
-def _logged_level(log: _Log, key: str, default: float) -> tuple[float, bool]:
+def _logged_level(log: RunLog, key: str, default: float) -> tuple[float, bool]:
     """(value, assumed): a constant logged level, its last finite value, or the default."""
     values = log.get(key)
-    if (c := _constant(values)) is not None:
+    if (c := constant_value(values)) is not None:
         return c, False
-    if _has_finite(values):
+    if has_finite(values):
         return float(values[np.isfinite(values)][-1]), False
     return default, True
 
@@ -213,20 +235,20 @@ def _signed_scale(ax, values: np.ndarray) -> None:
 
 def _components(ax, t, values, symbol: str, frame: str, norm: bool) -> None:
     """Three components (x red, y green, z blue) and, optionally, the norm in black."""
-    t_env, v_env = _envelope(t, values)
+    t_env, v_env = envelope(t, values)
     for j, name in enumerate("xyz"):
         ax.plot(
             t_env[:, j],
             v_env[:, j],
-            color=_COMPONENT_COLOURS[j],
+            color=COMPONENT_COLOURS[j],
             lw=0.9,
             label=f"{symbol}_{name} ({frame})",
         )
     if norm:
-        ax.plot(*_envelope(t, np.linalg.norm(values, axis=1)), color="k", lw=1.4, label="norm")
+        ax.plot(*envelope(t, np.linalg.norm(values, axis=1)), color="k", lw=1.4, label="norm")
 
 
-def _finish_time_axes(axes, log: _Log, edges) -> None:
+def _finish_time_axes(axes, log: RunLog, edges) -> None:
     for ax in axes[:-1]:
         ax.tick_params(labelbottom=False)
     axes[-1].set_xlabel(log.t_label)
@@ -238,36 +260,38 @@ def _final(values: np.ndarray) -> float | None:
     return float(finite[-1]) if len(finite) else None
 
 
-def _is_coupled_run(log: _Log) -> bool:
-    return _has_finite(log.get("coupled_eigenaxis_error_rad"))
+def _is_coupled_run(log: RunLog) -> bool:
+    return has_finite(log.get("coupled_eigenaxis_error_rad"))
 
 
 # --------------------------------------------------------------------------------------------
 # coupled_state.png (paper 001 Fig. 6)
 
 
-def figure_coupled_state(log: _Log, title: str) -> Figure | None:
+def figure_coupled_state(log: RunLog, title: str) -> Figure | None:
     """coupled_state.png (module docstring), or None without coupled_eigenaxis_error_rad."""
     if not _is_coupled_run(log):
         return None
     t = log.t
     panels = [("attitude", log.get("coupled_eigenaxis_error_rad"))]
     for key in ("coupled_w_TC_T_rad_s", "coupled_p_PtPc_T_m", "coupled_v_PtPc_T_m_s"):
-        if _has_finite(log.get(key)):
+        if has_finite(log.get(key)):
             panels.append((key, log.get(key)))
-    edges = _time_edges(t)
-    fig = Figure(figsize=(13, 2.6 * len(panels) + 1.3), dpi=_DPI)
+    edges = time_edges(t)
+    fig = Figure(figsize=(13, 2.6 * len(panels) + 1.3), dpi=DPI)
     fig.suptitle(
-        _title(title, "Coupled 6-DOF NMPC: relative attitude and feature points (paper 001 Fig. 6)")
+        figure_title(
+            title, "Coupled 6-DOF NMPC: relative attitude and feature points (paper 001 Fig. 6)"
+        )
     )
-    gs = _grid(fig, len(panels), 1, left=1.1, right=2.3, hspace=0.45)
+    gs = grid(fig, len(panels), 1, left=1.1, right=2.3, hspace=0.45)
     axes = []
     for i, (kind, values) in enumerate(panels):
         ax = fig.add_subplot(gs[i, 0], sharex=axes[0] if axes else None)
         axes.append(ax)
         if kind == "attitude":
             theta_deg = np.degrees(values)
-            ax.plot(*_envelope(t, theta_deg), color="k", lw=1.2, label="θ_c/t")
+            ax.plot(*envelope(t, theta_deg), color="k", lw=1.2, label="θ_c/t")
             _positive_scale(ax, theta_deg)
             ax.set_ylabel("eigenaxis error [deg]")
             end = _final(theta_deg)
@@ -284,7 +308,7 @@ def figure_coupled_state(log: _Log, title: str) -> Figure | None:
         elif kind == "coupled_p_PtPc_T_m":
             distance = np.linalg.norm(values, axis=1)
             _components(ax, t, values, "p", "T", norm=False)
-            ax.plot(*_envelope(t, distance), color="k", lw=1.8, label="|p_PtPc| distance")
+            ax.plot(*envelope(t, distance), color="k", lw=1.8, label="|p_PtPc| distance")
             _signed_scale(ax, values)
             ax.set_ylabel("p_PtPc_T [m]")
             end = _final(distance)
@@ -298,7 +322,7 @@ def figure_coupled_state(log: _Log, title: str) -> Figure | None:
             _signed_scale(ax, values)
             ax.set_ylabel("v_PtPc_T [m/s]")
             ax.set_title("feature points' relative velocity (seen in T), in T", fontsize=10)
-        ax.legend(**_LEGEND_OUTSIDE)
+        ax.legend(**LEGEND_OUTSIDE)
         ax.grid(True, which="both", alpha=0.3)
     _finish_time_axes(axes, log, edges)
     return fig
@@ -309,12 +333,12 @@ def figure_coupled_state(log: _Log, title: str) -> Figure | None:
 
 
 def _per_thruster(ax, t, values: np.ndarray, colours) -> None:
-    t_env, v_env = _envelope(t, values)
+    t_env, v_env = envelope(t, values)
     for k in range(values.shape[1]):
         ax.plot(t_env[:, k], v_env[:, k], color=colours[k], lw=0.9, label=f"k = {k + 1}")
 
 
-def figure_coupled_thrusters(log: _Log, title: str) -> Figure | None:
+def figure_coupled_thrusters(log: RunLog, title: str) -> Figure | None:
     """coupled_thrusters.png (module docstring), or None without coupled data or forces."""
     if not _is_coupled_run(log):
         return None
@@ -323,7 +347,7 @@ def figure_coupled_thrusters(log: _Log, title: str) -> Figure | None:
     F = _thruster_forces(log, layout.count, warn=True)
     force, torque = log.get("coupled_force_C_N"), log.get("coupled_torque_C_Nm")
     derived = ""
-    if F is not None and not (_has_finite(force) or _has_finite(torque)):
+    if F is not None and not (has_finite(force) or has_finite(torque)):
         force = F.sum(axis=1)  # f_C = sum_k f_k (eq. 11)
         torque = np.cross(layout.p_CK_C[None], F).sum(axis=1)  # tau_C = sum p_CK x f_k (eq. 12)
         derived = " (from the thruster forces)"
@@ -332,21 +356,21 @@ def figure_coupled_thrusters(log: _Log, title: str) -> Figure | None:
         log, "coupled_gimbal_half_angle_rad", cr.GIMBAL_HALF_ANGLE_RAD
     )
     panels = []
-    if _has_finite(force):
+    if has_finite(force):
         panels.append("force")
-    if _has_finite(torque):
+    if has_finite(torque):
         panels.append("torque")
-    if F is not None and _has_finite(F):
+    if F is not None and has_finite(F):
         panels += ["magnitude", "gimbal"]
     if not panels:
         return None
-    edges = _time_edges(t)
+    edges = time_edges(t)
     colours = [colormaps["tab10"](k % 10) for k in range(layout.count)]
-    fig = Figure(figsize=(13, 2.6 * len(panels) + 1.3), dpi=_DPI)
+    fig = Figure(figsize=(13, 2.6 * len(panels) + 1.3), dpi=DPI)
     fig.suptitle(
-        _title(title, "Coupled 6-DOF NMPC: chaser wrench and thrusters (paper 001 Fig. 7)")
+        figure_title(title, "Coupled 6-DOF NMPC: chaser wrench and thrusters (paper 001 Fig. 7)")
     )
-    gs = _grid(fig, len(panels), 1, left=1.1, right=2.3, hspace=0.45)
+    gs = grid(fig, len(panels), 1, left=1.1, right=2.3, hspace=0.45)
     axes = []
     for i, kind in enumerate(panels):
         ax = fig.add_subplot(gs[i, 0], sharex=axes[0] if axes else None)
@@ -365,11 +389,11 @@ def figure_coupled_thrusters(log: _Log, title: str) -> Figure | None:
             magnitude = np.linalg.norm(F, axis=2)
             _per_thruster(ax, t, magnitude, colours)
             limit = log.get("coupled_max_thrust_N")
-            if _has_finite(limit):
-                _level(ax, t, limit, color="k", ls="--", lw=1.0)
+            if has_finite(limit):
+                draw_level(ax, t, limit, color="k", ls="--", lw=1.0)
             else:
                 ax.axhline(f_max, color="k", ls="--", lw=1.0)
-            largest = float(np.nanmax(magnitude)) if _has_finite(magnitude) else float("nan")
+            largest = float(np.nanmax(magnitude)) if has_finite(magnitude) else float("nan")
             ax.set_ylim(-0.03 * f_max, 1.1 * max(f_max, largest))
             ax.set_ylabel("|f_k| [N]")
             ax.set_title(
@@ -383,11 +407,11 @@ def figure_coupled_thrusters(log: _Log, title: str) -> Figure | None:
             phi_deg = np.degrees(phi)
             _per_thruster(ax, t, phi_deg, colours)
             limit = log.get("coupled_gimbal_half_angle_rad")
-            if _has_finite(limit):
-                _level(ax, t, np.degrees(limit), color="k", ls="--", lw=1.0)
+            if has_finite(limit):
+                draw_level(ax, t, np.degrees(limit), color="k", ls="--", lw=1.0)
             else:
                 ax.axhline(math.degrees(alpha), color="k", ls="--", lw=1.0)
-            largest = float(np.nanmax(phi_deg)) if _has_finite(phi_deg) else float("nan")
+            largest = float(np.nanmax(phi_deg)) if has_finite(phi_deg) else float("nan")
             top = max(math.degrees(alpha), largest if math.isfinite(largest) else 0.0)
             ax.set_ylim(0.0, 1.15 * top)
             ax.set_ylabel("face-angle φ_k [deg]")
@@ -404,9 +428,9 @@ def figure_coupled_thrusters(log: _Log, title: str) -> Figure | None:
             handles, labels = ax.get_legend_handles_labels()
             handles.append(Line2D([], [], color="k", ls="--", lw=1.0))
             labels.append("limit")
-            ax.legend(handles, labels, ncol=2, **_LEGEND_OUTSIDE)
+            ax.legend(handles, labels, ncol=2, **LEGEND_OUTSIDE)
         else:
-            ax.legend(**_LEGEND_OUTSIDE)
+            ax.legend(**LEGEND_OUTSIDE)
         ax.grid(True, which="both", alpha=0.3)
     _finish_time_axes(axes, log, edges)
     return fig
@@ -448,7 +472,7 @@ def _fallback_styles(codes: np.ndarray) -> dict[int, tuple[str, str]]:
     return _present(styles, codes)
 
 
-def _panel_los(ax, log: _Log, edges) -> None:
+def _panel_los(ax, log: RunLog, edges) -> None:
     # The samples the run's outcome line counts (the plug-in's rule), so the two agree.
     from rpod.diagrams.controllers.coupled_nmpc import (  # here: the plug-in imports this module
         DISTANCE_TOLERANCE_M,
@@ -460,10 +484,10 @@ def _panel_los(ax, log: _Log, edges) -> None:
     p = log.get("coupled_p_PtPc_T_m")
     distance = np.linalg.norm(p, axis=1) if p is not None else np.full(len(t), np.inf)
     outside = los_counted_outside(margin, distance)
-    _bands(
+    code_bands(
         ax, edges, outside.astype(float), {1: ("outside the LOS pyramid", "tab:red")}, alpha=0.15
     )
-    ax.plot(*_envelope(t, margin), color="k", lw=1.2, label="margin (positive inside)")
+    ax.plot(*envelope(t, margin), color="k", lw=1.2, label="margin (positive inside)")
     ax.axhline(0.0, color="tab:red", lw=0.9, ls="--")
     _signed_scale(ax, margin)
     counted = np.where(outside, margin, 0.0)
@@ -481,12 +505,12 @@ def _panel_los(ax, log: _Log, edges) -> None:
         "as in the run's line)",
         fontsize=10,
     )
-    ax.legend(**_LEGEND_OUTSIDE)
+    ax.legend(**LEGEND_OUTSIDE)
 
 
-def _panel_solve_time(ax, log: _Log) -> None:
+def _panel_solve_time(ax, log: RunLog) -> None:
     t, solve = log.t, log.get("nmpc_solve_time_s")
-    ax.plot(*_envelope(t, solve), color="tab:blue", lw=1.0, drawstyle="steps-post")
+    ax.plot(*envelope(t, solve), color="tab:blue", lw=1.0, drawstyle="steps-post")
     _positive_scale(ax, solve)
     finite = solve[np.isfinite(solve)]
     ax.set_ylabel("solve time [s]")
@@ -496,38 +520,38 @@ def _panel_solve_time(ax, log: _Log) -> None:
     )
 
 
-def _panel_status(ax, log: _Log, edges) -> None:
+def _panel_status(ax, log: RunLog, edges) -> None:
     t = log.t
     rows = []
     status = log.get("nmpc_status")
-    if _has_finite(status):
+    if has_finite(status):
         rows.append(("NMPC status", status, _status_styles(status), 1))
     fallback = log.get("nmpc_fallback")
-    if _has_finite(fallback):
+    if has_finite(fallback):
         rows.append(("fallback", fallback, _fallback_styles(fallback), 1))
     for k, (_, codes, styles, failure) in enumerate(rows):  # the first row on top
         row = len(rows) - 1 - k
-        _bands(ax, edges, codes, styles, y=(row - 0.35, row + 0.35), axes_y=False, percent=True)
-        values, starts, _ = _runs(codes)
+        code_bands(ax, edges, codes, styles, y=(row - 0.35, row + 0.35), axes_y=False, percent=True)
+        values, starts, _ = code_runs(codes)
         events = starts[values >= failure]
         ax.plot(t[events], np.full(len(events), row + 0.42), "v", color="k", ms=4, zorder=5)
     ax.set_yticks(np.arange(len(rows)))
     ax.set_yticklabels([name for name, *_ in reversed(rows)])
     ax.set_ylim(-0.6, len(rows) - 0.35)
-    ax.legend(**_LEGEND_OUTSIDE)
+    ax.legend(**LEGEND_OUTSIDE)
     ax.set_title("NMPC status and fallback (▼: a failure or fallback starts)", fontsize=10)
 
 
-def figure_coupled_nmpc(log: _Log, title: str) -> Figure | None:
+def figure_coupled_nmpc(log: RunLog, title: str) -> Figure | None:
     """coupled_nmpc.png (module docstring), or None without coupled data or any of its keys."""
     if not _is_coupled_run(log):
         return None
     panels = []
-    if _has_finite(log.get("coupled_los_margin_m")):
+    if has_finite(log.get("coupled_los_margin_m")):
         panels.append(("los", 1.0))
-    if _has_finite(log.get("nmpc_solve_time_s")):
+    if has_finite(log.get("nmpc_solve_time_s")):
         panels.append(("solve", 0.8))
-    if _has_finite(log.get("nmpc_status"), log.get("nmpc_fallback")):
+    if has_finite(log.get("nmpc_status"), log.get("nmpc_fallback")):
         panels.append(("status", 0.4))
     if not panels:
         return None
@@ -541,4 +565,4 @@ def figure_coupled_nmpc(log: _Log, title: str) -> Figure | None:
             _panel_status(ax, log, edges)
 
     heading = "Coupled 6-DOF NMPC: line of sight and solver (paper 001)"
-    return _stacked_time_figure(log, title, heading, panels, draw)
+    return stacked_time_figure(log, title, heading, panels, draw)

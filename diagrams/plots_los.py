@@ -1,11 +1,12 @@
 """PNG figures of paper 004's rotating-LOS-corridor guidance (Secs. 5-7), from a run's log.
 
-Owns: the figure functions `figure_los_corridor` and `figure_los_body_frame` (registered in
-rpod.diagrams.plots' `_FIGURES` and written by its `write_plots`); two pure functions for any
-code that reports on the corridor: `violation_summary` (the depth, time in violation and first
-time of a violation) and `section_slopes` (the corridor's sections through its axis). Does not own: the corridor (rpod.models.los_corridor), the guidance, the log,
-nor writing the files (plots.write_plots: atomic saves, stale files removed, a figure that fails
-only warns, shapes checked by `plots._Log` against `plots._SHAPES`).
+Owns: the figure functions `figure_los_corridor` and `figure_los_body_frame` (`run_figures()`,
+which the plug-in's `run_figures()` hands rpod.diagrams.plots.write_plots); two pure functions
+for any code that reports on the corridor: `violation_summary` (the depth, time in violation
+and first time of a violation) and `section_slopes` (the corridor's sections through its axis).
+Does not own: the corridor (rpod.models.los_corridor), the guidance, the log, nor writing the
+files (plots.write_plots: atomic saves, stale files removed, a figure that fails only warns,
+shapes checked by `plots.RunLog` against the generic shapes and the plug-in's `log_shapes`).
 
 Log keys (N samples, time first; any may be missing; in L unless named otherwise):
   los_range_m (N)              |p_TC| [m].
@@ -71,20 +72,42 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
 from rpod.diagrams.plots import (
-    _COMPONENT_COLOURS,
-    _DPI,
-    _envelope,
-    _grid,
-    _has_finite,
-    _hold_points,
-    _Log,
-    _stacked_time_figure,
-    _start_end,
-    _title,
+    COMPONENT_COLOURS,
+    DPI,
+    LEGEND_OUTSIDE,
+    RunLog,
+    code_bands,
+    code_runs,
+    constant_value,
+    draw_level,
+    envelope,
+    figure_title,
+    grid,
+    has_finite,
+    hold_points,
+    mark_start_end,
+    stacked_time_figure,
 )
 from rpod.models.los_corridor import VIOLATION_TOLERANCE_M, LosCorridor
 
 _logger = logging.getLogger(__name__)
+
+
+FIGURE_NAMES = ("los_corridor.png", "los_body_frame.png")
+
+
+def run_figures() -> dict:
+    """The LOS corridor's run figures: {file name: draw(log, title)} (read when called, so a patched figure is drawn)."""
+    return dict(
+        zip(
+            FIGURE_NAMES,
+            (
+                figure_los_corridor,
+                figure_los_body_frame,
+            ),
+        )
+    )
+
 
 _MIN_FACES = 3  # n_f of the narrowest pyramid (LosCorridor's own bound)
 _REGIMES = {
@@ -107,12 +130,6 @@ _FALLBACK = {
     2: ("brake", "tab:red"),
     3: ("far-approach command", "tab:blue"),  # Fallback.NOMINAL: no braking far out
     4: ("best-effort QP (soft corridor)", "gold"),  # Fallback.BEST_EFFORT
-}
-_LEGEND_OUTSIDE = {  # right of the panel: the time axis stays clear
-    "loc": "upper left",
-    "bbox_to_anchor": (1.005, 1.0),
-    "fontsize": 8,
-    "frameon": False,
 }
 
 
@@ -153,17 +170,6 @@ def violation_summary(
     return float(-d[violating].min()), float(held[violating].sum()), float(t[violating][0])
 
 
-def _runs(codes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(values, starts, stops) of the runs of equal consecutive codes: samples starts[k] up to
-    stops[k] - 1 hold values[k]. Codes are rounded to integers first; NaN samples are left out."""
-    c = np.round(np.asarray(codes, dtype=float))
-    change = np.flatnonzero((c[1:] != c[:-1]) | np.isnan(c[1:])) + 1
-    starts = np.r_[0, change]
-    stops = np.r_[change, len(c)]
-    keep = np.isfinite(c[starts])
-    return c[starts[keep]].astype(int), starts[keep], stops[keep]
-
-
 def _floor_y(p_TC_T: np.ndarray | None, face_distance: np.ndarray | None) -> float | None:
     """The floor's y_T [m] recovered from the log: median of y_T - (floor distance)."""
     if p_TC_T is None or face_distance is None:
@@ -188,7 +194,7 @@ def section_slopes(half_angle_rad: float, faces: int) -> tuple[float, float, flo
     return float(s[0]), float(s[1]), float(s[2]), float(s[3])
 
 
-def _face_distances(log: _Log, warn: bool = False) -> np.ndarray | None:
+def _face_distances(log: RunLog, warn: bool = False) -> np.ndarray | None:
     """los_face_distance_m when it has n_f + 1 >= 4 columns (faces, then the floor)."""
     d = log.get("los_face_distance_m")
     if d is not None and d.shape[1] < _MIN_FACES + 1:
@@ -202,63 +208,15 @@ def _face_distances(log: _Log, warn: bool = False) -> np.ndarray | None:
     return d
 
 
-def _constant(values: np.ndarray | None) -> float | None:
-    """The value of a series that holds one finite value throughout (up to round-off)."""
-    if values is None:
-        return None
-    finite = values[np.isfinite(values)]
-    if not len(finite):
-        return None
-    lo, hi = finite.min(), finite.max()
-    return float(np.median(finite)) if hi - lo <= 1e-9 * max(abs(hi), 1.0) else None
-
-
-# --------------------------------------------------------------------------------------------
-# Drawing helpers
-
-
-def _bands(ax, edges, codes, styles, y=(0.0, 1.0), axes_y=True, alpha=1.0, percent=False) -> None:
-    """One rectangle per run of equal codes, coloured and labelled by `styles` (code: (label,
-    colour)); codes not in `styles` are not drawn. y in axes coordinates unless axes_y is False.
-    percent: each label gets the share of the samples holding the code."""
-    values, starts, stops = _runs(codes)
-    n = max(len(codes), 1)
-    for code, (label, colour) in styles.items():
-        mine = values == code
-        if not mine.any():
-            continue
-        x0, x1 = edges[starts[mine]], edges[stops[mine]]
-        if percent:
-            label = f"{label} ({100.0 * np.sum(stops[mine] - starts[mine]) / n:.3g} %)"
-        kwargs = {"transform": ax.get_xaxis_transform()} if axes_y else {}
-        ax.broken_barh(
-            np.column_stack([x0, x1 - x0]),
-            (y[0], y[1] - y[0]),
-            facecolors=colour,
-            edgecolors="none",
-            alpha=alpha,
-            label=label,
-            **kwargs,
-        )
-
-
-def _level(ax, t, values, **kwargs) -> None:
-    """A reference level: a horizontal line when constant, else its (enveloped) time series."""
-    if (c := _constant(values)) is not None:
-        ax.axhline(c, **kwargs)
-    elif _has_finite(values):
-        ax.plot(*_envelope(t, values), **kwargs)
-
-
 # --------------------------------------------------------------------------------------------
 # los_corridor.png
 
 
-def _is_los_run(log: _Log) -> bool:
-    return any(key.startswith("los_") and _has_finite(a) for key, a in log.arrays.items())
+def _is_los_run(log: RunLog) -> bool:
+    return any(key.startswith("los_") and has_finite(a) for key, a in log.arrays.items())
 
 
-def _panel_range(ax, log: _Log, edges) -> None:
+def _panel_range(ax, log: RunLog, edges) -> None:
     t = log.t
     rng, sync, hold = (
         log.get("los_range_m"),
@@ -268,36 +226,36 @@ def _panel_range(ax, log: _Log, edges) -> None:
     regime = log.get("los_regime")
     hold_range = np.linalg.norm(hold, axis=1) if hold is not None else None
     if regime is not None:
-        _bands(ax, edges, regime, _REGIMES, alpha=0.13)
-    if _has_finite(rng):
-        ax.plot(*_envelope(t, rng), color="k", lw=1.2, label="range |p_TC|")
-    if _has_finite(sync):
-        _level(ax, t, sync, color="tab:red", ls="--", lw=1.0, label="r_sync = 2 a_max / ω_t²")
-    if _has_finite(hold_range):
-        _level(ax, t, hold_range, color="tab:purple", ls=":", lw=1.2, label="hold range |p_TH|")
+        code_bands(ax, edges, regime, _REGIMES, alpha=0.13)
+    if has_finite(rng):
+        ax.plot(*envelope(t, rng), color="k", lw=1.2, label="range |p_TC|")
+    if has_finite(sync):
+        draw_level(ax, t, sync, color="tab:red", ls="--", lw=1.0, label="r_sync = 2 a_max / ω_t²")
+    if has_finite(hold_range):
+        draw_level(ax, t, hold_range, color="tab:purple", ls=":", lw=1.2, label="hold range |p_TH|")
     levels = [a[np.isfinite(a)] for a in (rng, sync, hold_range) if a is not None]
     values = np.concatenate(levels) if levels else np.empty(0)
     if len(values) and values.min() > 0.0 and values.max() / values.min() >= 100.0:
         ax.set_yscale("log")
     ax.set_ylabel("range [m]")
     ax.set_title("range and guidance regime (Sec. 7)", fontsize=10)
-    ax.legend(**_LEGEND_OUTSIDE)
+    ax.legend(**LEGEND_OUTSIDE)
 
 
-def _panel_faces(ax, log: _Log, edges) -> None:
+def _panel_faces(ax, log: RunLog, edges) -> None:
     t, d = log.t, _face_distances(log)
     faces = d.shape[1] - 1
     least = np.fmin.reduce(d, axis=1)
     violating = least < -VIOLATION_TOLERANCE_M
-    _bands(ax, edges, violating.astype(float), {1: ("violation", "tab:red")}, alpha=0.2)
-    t_env, d_env = _envelope(t, d)
+    code_bands(ax, edges, violating.astype(float), {1: ("violation", "tab:red")}, alpha=0.2)
+    t_env, d_env = envelope(t, d)
     colours = [colormaps["hsv"](i / faces) for i in range(faces)]  # cyclic, as theta_i
     for i in range(faces):
         ax.plot(t_env[:, i], d_env[:, i], color=colours[i], lw=0.6, alpha=0.8)
     ax.plot(t_env[:, faces], d_env[:, faces], color="tab:brown", lw=0.9, ls="--", label="floor")
-    ax.plot(*_envelope(t, least), color="k", lw=1.6, label="least over faces and floor")
+    ax.plot(*envelope(t, least), color="k", lw=1.6, label="least over faces and floor")
     if violating.any():
-        ax.plot(*_envelope(t, np.where(violating, least, np.nan)), color="tab:red", lw=2.0)
+        ax.plot(*envelope(t, np.where(violating, least, np.nan)), color="tab:red", lw=2.0)
     ax.axhline(0.0, color="k", lw=0.8, ls=":")
     depth, duration, first = violation_summary(t, d)
     unit = "s" if "t" in log.arrays else "samples"
@@ -307,7 +265,7 @@ def _panel_faces(ax, log: _Log, edges) -> None:
         i = int(np.nanargmin(least))
         face = int(np.nanargmin(d[i]))
         where = f"face {face + 1}" if face < faces else "floor"
-        runs = int(np.count_nonzero(_runs(violating.astype(float))[0] == 1))
+        runs = int(np.count_nonzero(code_runs(violating.astype(float))[0] == 1))
         text = (
             f"worst violation {depth:.3g} m ({where}) at {log.when(i)}; "
             f"{duration:.4g} {unit} in violation over {runs} interval(s), "
@@ -323,12 +281,12 @@ def _panel_faces(ax, log: _Log, edges) -> None:
     handles, labels = ax.get_legend_handles_labels()
     handles.append(Line2D([], [], color=colours[0], lw=0.6))
     labels.append(f"faces 1..{faces} (thin)")
-    ax.legend(handles, labels, **_LEGEND_OUTSIDE)
+    ax.legend(handles, labels, **LEGEND_OUTSIDE)
     ax.set_ylabel("distance inside [m]")
     ax.set_title(f"distance to the corridor's planes, positive inside (eq. 9)\n{text}", fontsize=10)
 
 
-def _panel_acceleration(ax, log: _Log) -> None:
+def _panel_acceleration(ax, log: RunLog) -> None:
     t = log.t
     series = (
         ("los_applied_L", "applied to the truth", "-", 1.0, 1.0),
@@ -338,20 +296,18 @@ def _panel_acceleration(ax, log: _Log) -> None:
     style_handles, drawn = [], []
     for key, label, ls, alpha, lw in series:
         a = log.get(key)
-        if not _has_finite(a):
+        if not has_finite(a):
             continue
         drawn.append(key)
-        t_env, a_env = _envelope(t, a)
+        t_env, a_env = envelope(t, a)
         for j in range(3):
-            ax.plot(
-                t_env[:, j], a_env[:, j], ls=ls, lw=lw, alpha=alpha, color=_COMPONENT_COLOURS[j]
-            )
+            ax.plot(t_env[:, j], a_env[:, j], ls=ls, lw=lw, alpha=alpha, color=COMPONENT_COLOURS[j])
         style_handles.append(Line2D([], [], color="0.3", ls=ls, alpha=alpha, label=label))
     a_max = log.get("los_a_max_m_s2")
     bound = 0.0
-    if _has_finite(a_max):
-        _level(ax, t, a_max, color="k", ls="-.", lw=0.9)
-        _level(ax, t, -a_max, color="k", ls="-.", lw=0.9)
+    if has_finite(a_max):
+        draw_level(ax, t, a_max, color="k", ls="-.", lw=0.9)
+        draw_level(ax, t, -a_max, color="k", ls="-.", lw=0.9)
         bound = float(np.nanmax(np.abs(a_max)))
         style_handles.append(Line2D([], [], color="k", ls="-.", lw=0.9, label="±a_max (eq. 11e)"))
     # The nominal PD command may be far outside the bound: the view follows what was applied.
@@ -361,14 +317,14 @@ def _panel_acceleration(ax, log: _Log) -> None:
         ax.set_ylim(-1.2 * extent, 1.2 * extent)
     component_handles = [
         Line2D([], [], color=c, lw=1.5, label=f"{name}_L")
-        for c, name in zip(_COMPONENT_COLOURS, "xyz")
+        for c, name in zip(COMPONENT_COLOURS, "xyz")
     ]
-    ax.legend(handles=component_handles + style_handles, **_LEGEND_OUTSIDE)
+    ax.legend(handles=component_handles + style_handles, **LEGEND_OUTSIDE)
     ax.set_ylabel("acceleration in L [m/s²]")
     ax.set_title("acceleration: applied, commanded and nominal", fontsize=10)
 
 
-def _panel_status(ax, log: _Log, edges) -> None:
+def _panel_status(ax, log: RunLog, edges) -> None:
     t = log.t
     rows = [
         (key, styles, failure)
@@ -376,35 +332,35 @@ def _panel_status(ax, log: _Log, edges) -> None:
             ("los_mpc_status", _STATUS, 2),
             ("los_fallback", _FALLBACK, 1),
         )
-        if _has_finite(log.get(key))
+        if has_finite(log.get(key))
     ]
     names = {"los_mpc_status": "MPC status", "los_fallback": "fallback"}
     for k, (key, styles, failure) in enumerate(rows):  # the first row on top
         row = len(rows) - 1 - k
         codes = log.get(key)
-        _bands(ax, edges, codes, styles, y=(row - 0.35, row + 0.35), axes_y=False, percent=True)
-        values, starts, _ = _runs(codes)
+        code_bands(ax, edges, codes, styles, y=(row - 0.35, row + 0.35), axes_y=False, percent=True)
+        values, starts, _ = code_runs(codes)
         events = starts[values >= failure]
         ax.plot(t[events], np.full(len(events), row + 0.42), "v", color="k", ms=4, zorder=5)
     ax.set_yticks(np.arange(len(rows)))
     ax.set_yticklabels([names[key] for key, _, _ in reversed(rows)])
     ax.set_ylim(-0.6, len(rows) - 0.35)
-    ax.legend(**_LEGEND_OUTSIDE)
+    ax.legend(**LEGEND_OUTSIDE)
     ax.set_title("MPC status and fallback (▼: a failure or fallback starts)", fontsize=10)
 
 
-def figure_los_corridor(log: _Log, title: str) -> Figure | None:
+def figure_los_corridor(log: RunLog, title: str) -> Figure | None:
     """los_corridor.png (module docstring), or None without any LOS data."""
     if not _is_los_run(log):
         return None
 
     def has(*keys: str) -> bool:
-        return _has_finite(*(log.get(key) for key in keys))
+        return has_finite(*(log.get(key) for key in keys))
 
     panels = []  # (kind, relative height)
     if has("los_range_m", "los_sync_range_m", "los_regime", "los_hold_point_T"):
         panels.append(("range", 1.0))
-    if _has_finite(_face_distances(log, warn=True)):
+    if has_finite(_face_distances(log, warn=True)):
         panels.append(("faces", 1.0))
     if has("los_applied_L", "los_command_L", "los_nominal_L"):
         panels.append(("acceleration", 1.0))
@@ -424,24 +380,24 @@ def figure_los_corridor(log: _Log, title: str) -> Figure | None:
             _panel_status(ax, log, edges)
 
     heading = "Rotating LOS corridor guidance (paper 004, Secs. 5-7)"
-    return _stacked_time_figure(log, title, heading, panels, draw)
+    return stacked_time_figure(log, title, heading, panels, draw)
 
 
 # --------------------------------------------------------------------------------------------
 # los_body_frame.png
 
 
-def figure_los_body_frame(log: _Log, title: str) -> Figure | None:
+def figure_los_body_frame(log: RunLog, title: str) -> Figure | None:
     """los_body_frame.png (module docstring), or None without LOS data or a path in T."""
     p = log.p_TC_T()
-    if not (_is_los_run(log) and _has_finite(p)):
+    if not (_is_los_run(log) and has_finite(p)):
         return None
     default = LosCorridor()
-    alpha_deg = _constant(log.get("los_half_angle_deg"))
+    alpha_deg = constant_value(log.get("los_half_angle_deg"))
     alpha_label = "α_c = {:.3g}°"
     if alpha_deg is None:
         half_angles = log.get("los_half_angle_deg")
-        if _has_finite(half_angles):  # changed during the run: the last one
+        if has_finite(half_angles):  # changed during the run: the last one
             alpha_deg = float(half_angles[np.isfinite(half_angles)][-1])
             alpha_label += " (last)"
         else:
@@ -455,7 +411,7 @@ def figure_los_body_frame(log: _Log, title: str) -> Figure | None:
     n_f = faces.shape[1] - 1 if faces is not None else default.faces
     slopes = section_slopes(math.radians(alpha_deg), n_f)
     hold = log.get("los_hold_point_T")
-    holds = _hold_points(hold) if hold is not None else np.empty((0, 3))
+    holds = hold_points(hold) if hold is not None else np.empty((0, 3))
     violating = (
         np.fmin.reduce(faces, axis=1) < -VIOLATION_TOLERANCE_M
         if faces is not None
@@ -465,9 +421,9 @@ def figure_los_body_frame(log: _Log, title: str) -> Figure | None:
     y_top = 1.1 * float(np.nanmax(ys)) if np.isfinite(ys).any() else 1.0
     y_top = max(y_top, 1.5 * floor_y, 1e-3)
 
-    fig = Figure(figsize=(14, 7.0), dpi=_DPI)
+    fig = Figure(figsize=(14, 7.0), dpi=DPI)
     fig.suptitle(
-        _title(
+        figure_title(
             title,
             "Chaser in the target body frame T with the LOS corridor (axis +y_T): "
             + alpha_label.format(alpha_deg)
@@ -476,7 +432,7 @@ def figure_los_body_frame(log: _Log, title: str) -> Figure | None:
             + f", {n_f} faces",
         )
     )
-    gs = _grid(fig, 1, 2, right=0.2, bottom=0.6, top=0.75, wspace=0.22)
+    gs = grid(fig, 1, 2, right=0.2, bottom=0.6, top=0.75, wspace=0.22)
     for col, (i_h, name) in enumerate(((0, "x_T"), (2, "z_T"))):
         ax = fig.add_subplot(gs[0, col])
         h, v = p[:, i_h], p[:, 1]
@@ -512,7 +468,7 @@ def figure_los_body_frame(log: _Log, title: str) -> Figure | None:
                 label="violating samples",
                 zorder=4,
             )
-        _start_end(ax, h, v)
+        mark_start_end(ax, h, v)
         ax.plot([0.0], [0.0], "*", color="k", ms=11, label="target (T origin)", zorder=4)
         if len(holds):
             ax.plot(

@@ -1,12 +1,13 @@
 """PNG figures of paper 003's planar approach (Sec. V, Figs. 4-9), from a run's log or a campaign.
 
 Owns: the run figures `figure_planar_path`, `figure_planar_thrusters`, `figure_planar_tracking`
-and `figure_planar_relative_velocity` (registered in rpod.diagrams.plots' `_FIGURES` and written
-by its `write_plots`), `square_corners` (a square's outline at a pose), and the campaign maps
-`write_campaign_maps` (Figs. 8-9-like, over the ok runs' metrics). Does not own: the model
-(rpod.models.planar_approach), the log (the planar_approach plug-in), nor writing the run's files
-(plots.write_plots: atomic saves, stale files removed, a figure that fails only warns, shapes
-checked by `plots._Log` against `plots._SHAPES`).
+and `figure_planar_relative_velocity` (`run_figures()`, which the plug-in's `run_figures()` hands
+rpod.diagrams.plots.write_plots), `square_corners` (a square's outline at a pose), and the
+campaign maps `write_campaign_maps` (Figs. 8-9-like, over the ok runs' metrics). Does not own:
+the model (rpod.models.planar_approach), the log (the planar_approach plug-in), nor writing the
+run's files (plots.write_plots: atomic saves, stale files removed, a figure that fails only
+warns, shapes checked by `plots.RunLog` against the generic shapes and the plug-in's
+`log_shapes`).
 
 Log keys (N samples, time first; all drawn only when planar_flown_state is logged; in L):
   planar_flown_state (N, 6)         the truth's x = [x, y, theta, v_x, v_y, omega] (eq. 1).
@@ -56,12 +57,35 @@ from matplotlib.cm import ScalarMappable
 from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 
-from rpod.diagrams.plots import _DPI, _has_finite, _Log, _title, save_figure
+from rpod.diagrams.plots import DPI, RunLog, figure_title, has_finite, save_figure
 from rpod.models import planar_approach as pa
 
 _INSTANTS = 10  # squares drawn along the path (Fig. 4)
 _PAPER_RELATIVE_SPEED_M_S = 0.03  # Sec. V-C: "converges to approximately 0.03 m/s"
 _STATE_COLOURS = {pa.STATE_I: "tab:red", pa.STATE_II: "tab:green"}
+
+
+FIGURE_NAMES = (
+    "planar_path.png",
+    "planar_thrusters.png",
+    "planar_tracking.png",
+    "planar_relative_velocity.png",
+)
+
+
+def run_figures() -> dict:
+    """The planar approach's run figures: {file name: draw(log, title)} (read when called, so a patched figure is drawn)."""
+    return dict(
+        zip(
+            FIGURE_NAMES,
+            (
+                figure_planar_path,
+                figure_planar_thrusters,
+                figure_planar_tracking,
+                figure_planar_relative_velocity,
+            ),
+        )
+    )
 
 
 def _plane_axes(ax, title: str) -> None:
@@ -87,7 +111,7 @@ def _rotate(points: np.ndarray, yaw: float) -> np.ndarray:
     return points @ np.array([[c, s], [-s, c]])
 
 
-def _arrival_s(log: _Log) -> float | None:
+def _arrival_s(log: RunLog) -> float | None:
     """The planned arrival: the last sample with a plan state."""
     plan = log.get("planar_plan_state")
     if plan is None:
@@ -96,7 +120,7 @@ def _arrival_s(log: _Log) -> float | None:
     return float(log.t[finite[-1]]) if len(finite) else None
 
 
-def _sides(log: _Log) -> tuple[float, float]:
+def _sides(log: RunLog) -> tuple[float, float]:
     chaser, target = log.get("planar_chaser_side_m"), log.get("planar_target_side_m")
     return (
         float(chaser[0]) if chaser is not None else 0.3,
@@ -110,19 +134,19 @@ def _keepout_outline(geometry: pa.KeepOutGeometry, state: int) -> list[np.ndarra
     return [np.vstack([p, p[:1]]) for p in keepout_outlines_T(geometry, state)]
 
 
-def figure_planar_path(log: _Log, title: str) -> Figure | None:
+def figure_planar_path(log: RunLog, title: str) -> Figure | None:
     """Fig. 4: the path with the two squares' poses in L."""
     flown = log.get("planar_flown_state")
-    if not _has_finite(flown):
+    if not has_finite(flown):
         return None
     t = log.t
     plan = log.get("planar_plan_state")
     yaw_t = log.get("planar_target_yaw_rad")
     chaser_side, target_side = _sides(log)
-    fig = Figure(figsize=(7.5, 7.0), dpi=_DPI)
+    fig = Figure(figsize=(7.5, 7.0), dpi=DPI)
     ax = fig.add_subplot()
     ax.plot(flown[:, 0], flown[:, 1], "-", color="tab:blue", lw=1.2, label="flown")
-    if _has_finite(plan):
+    if has_finite(plan):
         ax.plot(plan[:, 0], plan[:, 1], ":", color="k", lw=1.2, label="planned")
     arrival = _arrival_s(log)
     end = t[-1] if arrival is None else min(arrival, t[-1])
@@ -159,24 +183,24 @@ def figure_planar_path(log: _Log, title: str) -> Figure | None:
     sm = colormaps["viridis"].resampled(_INSTANTS)
     mappable = ScalarMappable(norm=Normalize(instants[0], instants[-1]), cmap=sm)
     fig.colorbar(mappable, ax=ax, label="t [s] of the squares (bold side: docking face)")
-    _plane_axes(ax, _title(title, "path and poses (Fig. 4)"))
+    _plane_axes(ax, figure_title(title, "path and poses (Fig. 4)"))
     return fig
 
 
-def figure_planar_thrusters(log: _Log, title: str) -> Figure | None:
+def figure_planar_thrusters(log: RunLog, title: str) -> Figure | None:
     """Fig. 5: the thrusters' ON/OFF sequence and the desired body wrench."""
     if log.get("planar_flown_state") is None:
         return None
     on = log.get("thruster_on")
     wrench = log.get("planar_body_wrench_desired")
-    if not _has_finite(on) and not _has_finite(wrench):
+    if not has_finite(on) and not has_finite(wrench):
         return None
     t = log.t
-    panels = [p for p in (on, wrench) if _has_finite(p)]
-    fig = Figure(figsize=(10, 2.8 * len(panels) + 0.6), dpi=_DPI)
+    panels = [p for p in (on, wrench) if has_finite(p)]
+    fig = Figure(figsize=(10, 2.8 * len(panels) + 0.6), dpi=DPI)
     axes = fig.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0]
     k = 0
-    if _has_finite(on):
+    if has_finite(on):
         ax = axes[k]
         k += 1
         n = on.shape[1]
@@ -196,10 +220,10 @@ def figure_planar_thrusters(log: _Log, title: str) -> Figure | None:
         ax.set_ylabel("thruster k (black: ON)")
         fraction = float(np.mean(on > 0.5))
         ax.set_title(
-            _title(title, f"thruster ON/OFF (Fig. 5); ON {100 * fraction:.1f}% of the time"),
+            figure_title(title, f"thruster ON/OFF (Fig. 5); ON {100 * fraction:.1f}% of the time"),
             fontsize=10,
         )
-    if _has_finite(wrench):
+    if has_finite(wrench):
         ax = axes[k]
         for index, name, colour in ((3, "f_x", "tab:red"), (4, "f_y", "tab:green")):
             ax.plot(t, wrench[:, index], color=colour, lw=0.8, label=f"{name} [N]")
@@ -216,29 +240,29 @@ def figure_planar_thrusters(log: _Log, title: str) -> Figure | None:
     return fig
 
 
-def figure_planar_tracking(log: _Log, title: str) -> Figure | None:
+def figure_planar_tracking(log: RunLog, title: str) -> Figure | None:
     """Fig. 6: planned against flown path, and the errors."""
     flown, plan = log.get("planar_flown_state"), log.get("planar_plan_state")
-    if not _has_finite(flown):
+    if not has_finite(flown):
         return None
     t = log.t
-    fig = Figure(figsize=(12, 6.5), dpi=_DPI)
+    fig = Figure(figsize=(12, 6.5), dpi=DPI)
     grid = fig.add_gridspec(2, 2, width_ratios=(1.0, 1.4))
     ax = fig.add_subplot(grid[:, 0])
     ax.plot(flown[:, 0], flown[:, 1], "-", color="tab:blue", lw=1.2, label="flown")
-    if _has_finite(plan):
+    if has_finite(plan):
         ax.plot(plan[:, 0], plan[:, 1], ":", color="k", lw=1.5, label="planned (ideal)")
     ax.plot(0.0, 0.0, "+", color="k", ms=10)
-    _plane_axes(ax, _title(title, "planned vs flown (Fig. 6)"))
+    _plane_axes(ax, figure_title(title, "planned vs flown (Fig. 6)"))
     error, attitude = log.get("planar_position_error_m"), log.get("planar_attitude_error_rad")
     ax = fig.add_subplot(grid[0, 1])
-    if _has_finite(error):
+    if has_finite(error):
         rms = float(np.sqrt(np.nanmean(error**2)))
         ax.plot(t, 100.0 * error, color="tab:blue", lw=0.8, label="|p - p_plan|")
         ax.axhline(100.0 * rms, color="tab:blue", ls="--", lw=0.8, label=f"RMS {100 * rms:.2f} cm")
         ax.set_ylabel("position error [cm]")
         ax.legend(loc="upper left", fontsize=8)
-    if _has_finite(attitude):
+    if has_finite(attitude):
         twin = ax.twinx()
         twin.plot(t, np.degrees(attitude), color="tab:orange", lw=0.8)
         twin.set_ylabel("attitude error [deg]", color="tab:orange")
@@ -246,14 +270,14 @@ def figure_planar_tracking(log: _Log, title: str) -> Figure | None:
     ax.set_title("tracking error (eq. 11), over the planned span", fontsize=9)
     ax = fig.add_subplot(grid[1, 1], sharex=ax)
     q, state = log.get("planar_keepout_q_m"), log.get("planar_keepout_state")
-    if _has_finite(q):
+    if has_finite(q):
         ax.plot(t, q, color="k", lw=0.8, label="q (eq. 9) at the chaser's centre")
         ax.axhline(0.0, color="tab:red", lw=0.8)
     if state is not None:
         for code, colour in _STATE_COLOURS.items():
             mask = state == code
             if np.any(mask):
-                low, high = ax.get_ylim() if _has_finite(q) else (0.0, 1.0)
+                low, high = ax.get_ylim() if has_finite(q) else (0.0, 1.0)
                 ax.fill_between(
                     t,
                     low,
@@ -265,7 +289,7 @@ def figure_planar_tracking(log: _Log, title: str) -> Figure | None:
                     label=f"State {'I' * code}",
                 )
     separation = log.get("separation_m")
-    if _has_finite(separation):
+    if has_finite(separation):
         ax.plot(t, separation, color="tab:purple", lw=0.8, label="true separation")
     ax.set_ylabel("[m]")
     ax.set_xlabel(log.t_label)
@@ -275,13 +299,13 @@ def figure_planar_tracking(log: _Log, title: str) -> Figure | None:
     return fig
 
 
-def figure_planar_relative_velocity(log: _Log, title: str) -> Figure | None:
+def figure_planar_relative_velocity(log: RunLog, title: str) -> Figure | None:
     """Fig. 7: the chaser's velocity relative to the target, in the target frame."""
     v = log.get("planar_relative_velocity_T")
-    if not _has_finite(v):
+    if not has_finite(v):
         return None
     t = log.t
-    fig = Figure(figsize=(9, 4.2), dpi=_DPI)
+    fig = Figure(figsize=(9, 4.2), dpi=DPI)
     ax = fig.add_subplot()
     ax.plot(t, v[:, 0], color="tab:red", lw=0.8, label="v_x_T")
     ax.plot(t, v[:, 1], color="tab:green", lw=0.8, label="v_y_T")
@@ -305,7 +329,7 @@ def figure_planar_relative_velocity(log: _Log, title: str) -> Figure | None:
     ax.set_ylabel("relative velocity in T [m/s]")
     ax.grid(True, alpha=0.3)
     ax.legend(loc="upper right", fontsize=8)
-    ax.set_title(_title(title, "chaser-target relative velocity in T (Fig. 7)"), fontsize=10)
+    ax.set_title(figure_title(title, "chaser-target relative velocity in T (Fig. 7)"), fontsize=10)
     return fig
 
 
@@ -361,7 +385,7 @@ def write_campaign_maps(metrics: list[dict], out_dir) -> list[Path]:
     safe = np.array([bool(m.get("planar_safe")) for m in metrics], dtype=float)
     paths = []
     if len(np.unique(np.round(theta, 6))) > 1:
-        fig = Figure(figsize=(16, 4.8), dpi=_DPI)
+        fig = Figure(figsize=(16, 4.8), dpi=DPI)
         polar = fig.add_subplot(1, 4, 1, projection="polar")
         cmap = colormaps["plasma"]
         omegas = np.unique(np.round(omega, 6))
@@ -407,7 +431,7 @@ def write_campaign_maps(metrics: list[dict], out_dir) -> list[Path]:
         save_figure(fig, path)
         paths.append(path)
     elif len(np.unique(np.round(omega, 6))) > 1:
-        fig = Figure(figsize=(16, 9), dpi=_DPI)
+        fig = Figure(figsize=(16, 9), dpi=DPI)
         ax = fig.add_subplot(2, 2, 1)
         omegas = np.unique(np.round(omega, 6))
         terms = {

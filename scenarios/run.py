@@ -58,6 +58,7 @@ import threading
 import numpy as np
 from pydrake.common.yaml import yaml_dump_typed
 
+from rpod.diagrams.controller_seam import plugin_for
 from rpod.diagrams.plots import write_plots
 from rpod.diagrams.scenario import Scenario
 from rpod.diagrams.simulate import simulate
@@ -413,7 +414,9 @@ def run_to_folder(
         summary = {"scenario": name, **result.summary}
         np.savez_compressed(staging / "log.npz", **result.log)
         (staging / "scenario.yaml").write_text(yaml_dump_typed(scenario))
-        summary["plots"] = [p.name for p in write_plots(result.log, staging / "plots", name)]
+        plugin = plugin_for(scenario.controller)  # its own figures beside the generic ones
+        plots = write_plots(result.log, staging / "plots", name, [plugin] if plugin else [])
+        summary["plots"] = [p.name for p in plots]
         if meshcat is not None:
             from rpod.diagrams.recording import save_recording_html
 

@@ -96,6 +96,21 @@ def los_counted_outside(margin_m: np.ndarray, distance_m: np.ndarray) -> np.ndar
 
 INTEGRAL_WEIGHT = 1e-6  # Q_xi / I3: rpod's, not the printed 1e-9 (module docstring)
 STATUS_LOG_KEY = "coupled_nmpc_status_vector"  # the raw (n, 5) log, split in results()
+LOG_SHAPES = {  # the keys the figures read (rpod.diagrams.plots_coupled documents each)
+    "coupled_eigenaxis_error_rad": None,
+    "coupled_w_TC_T_rad_s": 3,
+    "coupled_p_PtPc_T_m": 3,
+    "coupled_v_PtPc_T_m_s": 3,
+    "coupled_thruster_forces_C_N": -1,  # 3 per thruster
+    "coupled_force_C_N": 3,
+    "coupled_torque_C_Nm": 3,
+    "coupled_los_margin_m": None,
+    "coupled_max_thrust_N": None,
+    "coupled_gimbal_half_angle_rad": None,
+    "nmpc_status": None,
+    "nmpc_fallback": None,
+    "nmpc_solve_time_s": None,
+}
 
 
 @dataclasses.dataclass
@@ -258,6 +273,13 @@ class CoupledNmpcPlugin(ControllerPlugin):
     config_type = CoupledNmpc
     system_name = "coupled_nmpc"
     actuation = Actuation.THRUSTER_COMMANDS
+    log_shapes = LOG_SHAPES
+
+    def run_figures(self) -> dict:
+        """coupled_state.png, coupled_thrusters.png, coupled_nmpc.png (rpod.diagrams.plots_coupled)."""
+        from rpod.diagrams import plots_coupled  # only when drawing: no matplotlib at load
+
+        return plots_coupled.run_figures()
 
     def validate(self, config, scenario) -> None:
         super().validate(config, scenario)

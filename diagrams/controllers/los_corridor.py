@@ -30,9 +30,9 @@ from rpod.diagrams.controller_seam import (
     MissionOutcome,
     register_controller,
 )
-from rpod.diagrams.plots import chaser_in_target_frame
 from rpod.diagrams.plots_los import violation_summary
 from rpod.diagrams.scenario import ScenarioError, body_polytopes
+from rpod.diagrams.target_frame import chaser_in_target_frame
 from rpod.models.frames import rotations_from_wxyz
 from rpod.models.los_corridor import (
     VIOLATION_TOLERANCE_M,
@@ -52,6 +52,20 @@ from rpod.systems.los_guidance import (
 from rpod.systems.sensed import SENSED_PORT
 
 ACTUATIONS = ("ideal", "thrusters")
+LOG_SHAPES = {  # the keys the figures read (rpod.diagrams.plots_los documents each)
+    "los_range_m": None,
+    "los_sync_range_m": None,
+    "los_hold_point_T": 3,
+    "los_face_distance_m": -1,  # faces 1..n_f, then the floor
+    "los_command_L": 3,
+    "los_nominal_L": 3,
+    "los_applied_L": 3,
+    "los_regime": None,
+    "los_mpc_status": None,
+    "los_fallback": None,
+    "los_a_max_m_s2": None,
+    "los_half_angle_deg": None,
+}
 THRUSTER_PERIOD_S = 0.1  # the PWM period of `actuation: thrusters` (10 Hz, as the hold point)
 
 
@@ -100,6 +114,13 @@ class LosCorridorPlugin(ControllerPlugin):
     config_type = LosCorridor
     system_name = "los_guidance"
     actuation = Actuation.IDEAL
+    log_shapes = LOG_SHAPES
+
+    def run_figures(self) -> dict:
+        """los_corridor.png and los_body_frame.png (rpod.diagrams.plots_los)."""
+        from rpod.diagrams import plots_los  # only when drawing: no matplotlib at load
+
+        return plots_los.run_figures()
 
     def actuation_for(self, config) -> Actuation:
         return Actuation.IDEAL if config.actuation == "ideal" else Actuation.BODY_WRENCH

@@ -138,6 +138,20 @@ LOGGED = {
     "planar_sensed_state": "planar_state",
 }
 """Log key -> the tracker's output port (held at its samples)."""
+LOG_SHAPES = {  # the keys the figures read (rpod.diagrams.plots_planar documents each)
+    "planar_flown_state": 6,
+    "planar_plan_state": 6,
+    "planar_position_error_m": None,
+    "planar_attitude_error_rad": None,
+    "planar_target_yaw_rad": None,
+    "planar_relative_velocity_T": 2,
+    "planar_keepout_state": None,
+    "planar_keepout_q_m": None,
+    "planar_goal_L": 2,
+    "planar_chaser_side_m": None,
+    "planar_target_side_m": None,
+    "planar_body_wrench_desired": 6,
+}
 
 # The planner's fields that are problem data (derived from the scenario, `planner_config`);
 # every other PlanarApproachConfig field is a setting, from PlanarPlannerSettings.
@@ -905,6 +919,13 @@ class PlanarApproachPlugin(ControllerPlugin):
 
     config_type = PlanarApproach
     system_name = "planar_tracker"
+    log_shapes = LOG_SHAPES
+
+    def run_figures(self) -> dict:
+        """Figs. 4-7 of a run (rpod.diagrams.plots_planar)."""
+        from rpod.diagrams import plots_planar  # only when drawing: no matplotlib at load
+
+        return plots_planar.run_figures()
 
     def validate(self, config, scenario) -> None:
         super().validate(config, scenario)

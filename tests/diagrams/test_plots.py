@@ -190,13 +190,13 @@ def test_chaser_in_target_frame_matches_pydrake():
 
 
 def test_envelope_keeps_extremes_in_time_order():
-    from rpod.diagrams.plots import _envelope
+    from rpod.diagrams.plots import envelope
 
     rng = np.random.default_rng(2)
     t = np.sort(rng.uniform(0.0, 100.0, 5003))
     y = rng.standard_normal((5003, 3))
     y[100:120, 1] = np.nan  # a gap: NaN out, no crash
-    t_env, y_env = _envelope(t, y, buckets=500)
+    t_env, y_env = envelope(t, y, buckets=500)
     assert t_env.shape == y_env.shape and len(y_env) <= 1000
     np.testing.assert_array_equal(np.nanmax(y_env, axis=0), np.nanmax(y, axis=0))
     np.testing.assert_array_equal(np.nanmin(y_env, axis=0), np.nanmin(y, axis=0))
@@ -239,7 +239,7 @@ def test_propellant_used_is_drawn_positive_with_its_total(tmp_path):
 
     log = _synthetic_log(num_samples=200)
     log["propellant_kg"] = np.linspace(0.0, 0.25, 200)
-    figure = plots._figure_thrust(plots._Log(log), "")
+    figure = plots._figure_thrust(plots.RunLog(log), "")
     axes = next(ax for ax in figure.axes if ax.get_ylabel() == "propellant used [kg]")
     assert axes.get_title() == "propellant used (total 0.25 kg)"
     assert np.all(axes.lines[0].get_ydata() >= 0.0)

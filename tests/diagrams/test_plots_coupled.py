@@ -19,13 +19,16 @@ import numpy as np
 import pytest
 
 from rpod.diagrams import plots_coupled
-from rpod.diagrams.plots import COUPLED_FIGURE_NAMES, _Log, write_plots
+from rpod.diagrams.controllers.coupled_nmpc import LOG_SHAPES
+from rpod.diagrams.plots import RunLog, write_plots
+from rpod.diagrams.plots_coupled import FIGURE_NAMES as COUPLED_FIGURE_NAMES
 from rpod.diagrams.plots_coupled import (
     _outside_summary,
     figure_coupled_thrusters,
     gimbal_face_angles,
 )
-from rpod.models.thrusters import gimbal_polyhedron, gimbaled_cuboid_8, thruster_frame_C
+from rpod.models.gimbal import gimbal_polyhedron, thruster_frame_C
+from rpod.models.thrusters import gimbaled_cuboid_8
 
 ALPHA = math.pi / 4
 LAYOUT = gimbaled_cuboid_8()
@@ -94,7 +97,7 @@ def test_without_the_eigenaxis_error_no_coupled_figure(tmp_path):
     del log["coupled_eigenaxis_error_rad"]
     assert write_plots(log, tmp_path) == []  # every other coupled and nmpc key still there
     assert not any((tmp_path / name).exists() for name in COUPLED_FIGURE_NAMES)  # none stale
-    data = _Log(log)
+    data = RunLog(log, LOG_SHAPES)
     for make in (
         plots_coupled.figure_coupled_state,
         plots_coupled.figure_coupled_thrusters,
@@ -130,7 +133,7 @@ def test_resultant_from_the_thruster_forces_when_not_logged():
     i = 37
     tau = sum(np.cross(LAYOUT.p_CK_C[k], F[i, k]) for k in range(8))
     np.testing.assert_allclose(expected_torque[i], tau, atol=1e-12)
-    fig = figure_coupled_thrusters(_Log(log), "")
+    fig = figure_coupled_thrusters(RunLog(log, LOG_SHAPES), "")
     force_ax, torque_ax = fig.axes[0], fig.axes[1]
     assert "from the thruster forces" in force_ax.get_title()
     for ax, expected in ((force_ax, expected_force), (torque_ax, expected_torque)):
@@ -212,5 +215,5 @@ def test_the_los_panel_counts_the_samples_the_outcome_line_counts():
     distance = np.linalg.norm(log["coupled_p_PtPc_T_m"], axis=1)
     assert np.flatnonzero(los_counted_outside(margin, distance))[-1] == 199
     ax = Figure().add_subplot()
-    plots_coupled._panel_los(ax, _Log(log), np.r_[log["t"], log["t"][-1] + 0.5])
+    plots_coupled._panel_los(ax, RunLog(log, LOG_SHAPES), np.r_[log["t"], log["t"][-1] + 0.5])
     assert "inside from t = 100 s on" in ax.get_title()

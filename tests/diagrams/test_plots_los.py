@@ -2,7 +2,7 @@
 
 Truths: PNGs are read back with matplotlib.image.imread and must carry ink (as in test_plots);
 the figures of a run without los_* keys are byte-for-byte those of the same run with them (Agg
-renders deterministically); `violation_summary` and `_runs` against cases worked out by hand.
+renders deterministically); `violation_summary` and `code_runs` against cases worked out by hand.
 The synthetic run: a target spinning at 2 deg/s about z_T, a chaser spiralling down the docking
 axis +y_T from 200 m to a 10 m hold inside the corridor, pushed out through the faces for
 ~25 s around t = 215 s (the MPC infeasible and the fallbacks active there).
@@ -16,8 +16,11 @@ import numpy as np
 import pytest
 
 from rpod.diagrams import plots_los
-from rpod.diagrams.plots import FIGURE_NAMES, LOS_FIGURE_NAMES, _rotate, write_plots
-from rpod.diagrams.plots_los import _floor_y, _runs, section_slopes, violation_summary
+from rpod.diagrams.controllers.los_corridor import LOG_SHAPES
+from rpod.diagrams.plots import FIGURE_NAMES, RunLog, code_runs, write_plots
+from rpod.diagrams.plots_los import FIGURE_NAMES as LOS_FIGURE_NAMES
+from rpod.diagrams.plots_los import _floor_y, section_slopes, violation_summary
+from rpod.diagrams.target_frame import _rotate
 from rpod.models.los_corridor import LosCorridor
 
 OMEGA_T = math.radians(2.0)  # target spin about z_T [rad/s]
@@ -205,7 +208,7 @@ def test_section_slopes_hand_cases():
 
 
 def test_runs_and_floor_hand_cases():
-    values, starts, stops = _runs(np.array([0, 0, 1, 1, 1, 2, np.nan, 2, 0.0]))
+    values, starts, stops = code_runs(np.array([0, 0, 1, 1, 1, 2, np.nan, 2, 0.0]))
     np.testing.assert_array_equal(values, [0, 1, 2, 2, 0])
     np.testing.assert_array_equal(starts, [0, 2, 5, 7, 8])
     np.testing.assert_array_equal(stops, [2, 5, 6, 8, 9])
@@ -222,7 +225,6 @@ def test_every_fallback_the_guidance_logs_has_a_colour_and_a_legend_entry():
     """The far approach's own command (Fallback.NOMINAL) was drawn with no colour or legend."""
     from matplotlib.figure import Figure
 
-    from rpod.diagrams.plots import _Log
     from rpod.systems.los_guidance import Fallback
 
     assert set(plots_los._FALLBACK) == {int(f) for f in Fallback}
@@ -230,6 +232,6 @@ def test_every_fallback_the_guidance_logs_has_a_colour_and_a_legend_entry():
     log["los_fallback"] = np.repeat([3, 0, 1, 2], len(log["t"]) // 4 + 1)[: len(log["t"])]
     ax = Figure().add_subplot()
     edges = np.r_[log["t"], log["t"][-1] + 0.5]
-    plots_los._panel_status(ax, _Log(log), edges)
+    plots_los._panel_status(ax, RunLog(log, LOG_SHAPES), edges)
     labels = " ".join(text.get_text() for text in ax.get_legend().get_texts())
     assert "far-approach command" in labels and "brake" in labels

@@ -6,7 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from rpod.diagrams.plots import FIGURE_NAMES, PLANAR_FIGURE_NAMES, write_plots
+from rpod.diagrams.plots import FIGURE_NAMES, write_plots
+from rpod.diagrams.plots_planar import FIGURE_NAMES as PLANAR_FIGURE_NAMES
 from rpod.diagrams.plots_planar import square_corners, write_campaign_maps
 
 T_S = 20.0  # planned arrival of the synthetic log
