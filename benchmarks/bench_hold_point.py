@@ -9,7 +9,8 @@ in this run, and ratios are to references measured in the same run:
 1. Real-time factors of the bundled scenarios and of variants of hold_point (no recording),
    each run with the one-system truth (`Truth`, what rpod builds) and with the four systems it
    replaced (`SplitTruth`: `OrbitalDynamics`, two `RigidBodyAttitude`, `ThrusterBank`, put in
-   the same diagram through `rpod.diagrams.builder.Truth`). The two runs of a case alternate,
+   the same diagram through `rpod.diagrams.builder.Truth`; test-only code in tests/reference,
+   imported with the repository root put on sys.path). The two runs of a case alternate,
    so load on a shared machine hits both alike; best of N each.
 2. A plain-numpy reference for the goal case (hold_point, PWM 10 Hz x 10 slots, two_body_j2):
    the same 27 equations as a plain Python function, integrated with Drake's RK3 tableau over
@@ -45,8 +46,11 @@ from rpod.diagrams.builder import build_diagram
 from rpod.diagrams.simulate import simulate
 from rpod.models.gravity import J2_EARTH, MU_EARTH_M3_S2, R_EARTH_M
 from rpod.scenarios.loader import load_scenario
-from rpod.systems.split_truth import SplitTruth
 from rpod.systems.truth import Truth
+
+# SplitTruth is test-only (tests/reference, not part of the rpod package): reach it from the root.
+sys.path.append(str(pathlib.Path(__file__).resolve().parents[1]))
+from tests.reference.split_truth import SplitTruth
 
 GOAL_REAL_TIME_FACTOR = 100.0
 RESULTS = pathlib.Path(__file__).resolve().parent / "results" / "hold_point.md"

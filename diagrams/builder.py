@@ -46,10 +46,10 @@ from rpod.diagrams.scenario import (
     validate_scenario,
 )
 from rpod.models.frames import quaternion_wxyz, rotation_from_wxyz
+from rpod.models.orbit import initial_orbit_state, lvlh_of
 from rpod.models.thrusters import ThrusterLayout
 from rpod.systems.allocator import WrenchAllocator
 from rpod.systems.ideal_actuator import IdealActuator
-from rpod.systems.orbital_dynamics import initial_orbit_state, lvlh_of
 from rpod.systems.pwm import PwmModulator
 from rpod.systems.safety_monitor import SafetyMonitor
 from rpod.systems.sensed import SENSED_FIELDS, SENSED_PORT

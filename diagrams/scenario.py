@@ -21,6 +21,7 @@ from rpod.models import thrusters as presets
 from rpod.models.docking import DockingGeometry
 from rpod.models.frames import rotation_from_rpy_deg, rotation_from_wxyz
 from rpod.models.gravity import GRAVITY_MODELS, MIN_ALTITUDE_M
+from rpod.models.orbit import OrbitConfig, initial_orbit_state, lvlh_of
 from rpod.models.rigid_body import validate_inertia
 from rpod.models.shapes import (
     ConvexPolytope,
@@ -30,7 +31,6 @@ from rpod.models.shapes import (
 )
 from rpod.models.thrusters import ThrusterLayout
 from rpod.planners.pointing import min_rotation
-from rpod.systems.orbital_dynamics import OrbitConfig, initial_orbit_state, lvlh_of
 from rpod.systems.scene import SceneConfig
 
 THRUSTER_LAYOUTS = ("rcs_cube_12", "planar_8", "gimbaled_cuboid_8")

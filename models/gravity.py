@@ -3,7 +3,8 @@
 Owns: the gravitational constants, the point-mass and J2 accelerations in ECI (frame I) and
 their analytic gradient, the analytic secular J2 nodal-regression rate, and the circular orbit
 state from orbital elements.
-Does not own: integration (see rpod.systems.orbital_dynamics) or relative motion (rpod.models.cw).
+Does not own: integration (see rpod.systems.truth), the orbit set-up of a scenario
+(rpod.models.orbit) or relative motion (rpod.models.cw).
 
 Every function takes numpy arrays (float or AutoDiffXd object arrays) and returns numpy arrays,
 except the float-only hot paths `gravity_acceleration_xyz` and `gravity_gradient`.

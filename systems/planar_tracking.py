@@ -13,7 +13,7 @@ which eq. 14 leaves open) or the pulse modulation (`rpod.systems.pwm`).
 Planar world. Paper 003's state x = [x, y, theta, v_x, v_y, omega] (eq. 1) lives in the x-y
 plane of the target's LVLH frame L, theta about L's z. Under `free_space` gravity (the paper's
 air-bearing setting) L coincides with I, has no rate, and the target sits at its origin
-(`rpod.systems.orbital_dynamics`), so L is paper 003's inertial frame with the target at the
+(`rpod.models.orbit`), so L is paper 003's inertial frame with the target at the
 origin. From the sensed bundle (`rpod.systems.sensed`): (x, y) = p_LC_L[0:2],
 (v_x, v_y) = v_LC_L[0:2], theta = the yaw of R_LC = R_IL^T R_IC (atan2 of its first column),
 omega = z component of w_LC_L = R_LC w_IC_C - w_IL_L. Out-of-plane motion (p_z, v_z, roll,

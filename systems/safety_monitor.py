@@ -137,7 +137,8 @@ class ContactWatch:
         monitor: the diagram's SafetyMonitor (its shapes and inputs are used).
         truth: the diagram's Truth: its `separation_of_origins_m` skips the test cheaply while
             the bodies' bounding spheres are apart (None, or a truth without it such as the
-            tested reference SplitTruth: the monitor's input is read instead).
+            tested reference tests.reference.split_truth.SplitTruth: the monitor's input is
+            read instead).
         """
         self._monitor = monitor
         self._truth = truth if hasattr(truth, "separation_of_origins_m") else None

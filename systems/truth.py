@@ -7,8 +7,11 @@ as `ThrusterBank` clips them) to the body wrench and the propellant mass flow, o
 an actuator outside (`wrench_input`, e.g. `IdealActuator`).
 Does not own: the equations, which live in `rpod.models` (gravity, frames, rigid body,
 thrusters) and are the ones `OrbitalDynamics`, `RigidBodyAttitude` and `ThrusterBank` integrate
-(tests/systems/test_truth.py checks the derivatives against those three systems); pulse
-modulation (`rpod.systems.pwm`); gimbaled thrusters (use `ThrusterBank` and `OrbitalDynamics`).
+(the first two are test-only references in tests/reference; tests/systems/test_truth.py checks
+the derivatives against the three wired as `tests.reference.split_truth.SplitTruth`); the
+orbit's set-up (`OrbitConfig`, `initial_orbit_state`, `lvlh_of`: `rpod.models.orbit`); pulse
+modulation (`rpod.systems.pwm`); gimbaled thrusters (a `ThrusterBank` outside feeds this
+system's `wrench_input`).
 
 Why one system (benchmarks/results/hold_point.md). With PWM every 10 ms slot ends an integrator
 step, so a simulated second costs ~100 steps of 3 derivative evaluations each. Split over the
@@ -67,9 +70,9 @@ from rpod.models.gravity import (
     GRAVITY_MODELS,
     gravity_acceleration_xyz,
 )
+from rpod.models.orbit import OrbitConfig, initial_orbit_state, lvlh_of
 from rpod.models.rigid_body import validate_inertia
 from rpod.models.thrusters import ThrusterLayout, validate_layout, wrench_matrix
-from rpod.systems.orbital_dynamics import OrbitConfig, initial_orbit_state, lvlh_of
 
 # The state layout (module docstring).
 STATE_SIZE = 27

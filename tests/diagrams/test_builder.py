@@ -23,8 +23,8 @@ from rpod.diagrams.scenario import (
 )
 from rpod.diagrams.simulate import simulate
 from rpod.models.frames import rotation_from_rpy_deg, rotation_from_wxyz
+from rpod.models.orbit import OrbitConfig
 from rpod.models.thrusters import STANDARD_GRAVITY_M_S2
-from rpod.systems.orbital_dynamics import OrbitConfig
 
 
 def test_controlled_diagram_has_every_named_system():

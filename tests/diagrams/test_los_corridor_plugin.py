@@ -78,7 +78,7 @@ def test_a_start_seen_in_T_is_at_rest_in_the_turning_target_frame():
     scenario = load_scenario("los_corridor")[1]
     scenario.target.rpy_LT_deg = [10.0, -20.0, 35.0]
     p_L, v_L = initial_relative_state_L(scenario)
-    from rpod.systems.orbital_dynamics import initial_orbit_state, lvlh_of
+    from rpod.models.orbit import initial_orbit_state, lvlh_of
 
     w_IL_L = lvlh_of(*initial_orbit_state(scenario.orbit), scenario.orbit.gravity)[1]
     R_LT = rotation_from_rpy_deg(scenario.target.rpy_LT_deg)

@@ -16,7 +16,7 @@ from rpod.diagrams.scenario import (
     validate_scenario,
 )
 from rpod.diagrams.simulate import simulate
-from rpod.systems.orbital_dynamics import OrbitConfig
+from rpod.models.orbit import OrbitConfig
 
 
 def _with(**changes) -> Scenario:

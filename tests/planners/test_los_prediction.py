@@ -9,8 +9,8 @@ from scipy.integrate import solve_ivp
 
 from rpod.models.frames import lvlh_rotation
 from rpod.models.gravity import gravity_acceleration, gravity_acceleration_xyz, mean_motion
+from rpod.models.orbit import OrbitConfig, initial_orbit_state
 from rpod.planners.los_prediction import BodyFrameStep, TargetState, cw_body_frame_matrices
-from rpod.systems.orbital_dynamics import OrbitConfig, initial_orbit_state
 
 DEG = math.pi / 180.0
 # A non-trivial initial attitude R_IT (a proper rotation: orthonormal, det +1).

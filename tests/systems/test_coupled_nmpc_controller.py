@@ -19,6 +19,7 @@ from pydrake.systems.analysis import Simulator
 from rpod.models import coupled_relative as cr
 from rpod.models.frames import inertial_to_lvlh, quaternion_wxyz
 from rpod.models.gravity import circular_orbit_state
+from rpod.models.orbit import lvlh_of
 from rpod.planners.coupled_nmpc import CoupledNmpc, CoupledNmpcSettings, NmpcStatus
 from rpod.systems.coupled_nmpc_controller import (
     EXCEPTION_STATUS,
@@ -29,7 +30,6 @@ from rpod.systems.coupled_nmpc_controller import (
     coupled_state_from_sensed,
     feature_point_offset_T,
 )
-from rpod.systems.orbital_dynamics import lvlh_of
 from rpod.systems.sensed import Sensed, sensed_vector
 
 

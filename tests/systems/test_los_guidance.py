@@ -10,6 +10,7 @@ from scipy.spatial.transform import Rotation
 
 from rpod.models.cw import cw_acceleration
 from rpod.models.frames import quaternion_wxyz
+from rpod.models.orbit import OrbitConfig, initial_orbit_state, lvlh_of
 from rpod.planners.los_corridor_mpc import LosMpcSettings, MpcStatus
 from rpod.systems.los_guidance import (
     MPC_STATUS_CODES,
@@ -20,7 +21,6 @@ from rpod.systems.los_guidance import (
     Regime,
     regime,
 )
-from rpod.systems.orbital_dynamics import OrbitConfig, initial_orbit_state, lvlh_of
 from rpod.systems.sensed import sensed_vector
 
 OMEGA = np.radians(2.0)

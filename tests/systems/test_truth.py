@@ -1,11 +1,12 @@
 """Tests of rpod.systems.truth.Truth, the one-system truth, against independent references.
 
-References:
-- `SplitTruth` (rpod.systems.split_truth): the four systems the truth replaced
-  (`OrbitalDynamics`, two `RigidBodyAttitude`, `ThrusterBank`), each tested on its own in this
-  folder, wired as the builder wired them. Derivatives and outputs must agree at random states,
-  and a closed-loop run must reproduce the same trajectory, pulse pattern and propellant.
-- The DOP853 reference of tests/systems/test_orbital_dynamics.py (two-body + J2, both bodies
+References (test-only, in tests/reference; conftest.py here puts the root on sys.path):
+- `SplitTruth` (tests.reference.split_truth): the four systems the truth replaced
+  (`OrbitalDynamics`, two `RigidBodyAttitude`, `ThrusterBank`), each tested on its own
+  (tests/reference, tests/systems/test_thruster_bank.py), wired as the builder wired them.
+  Derivatives and outputs must agree at random states, and a closed-loop run must reproduce the
+  same trajectory, pulse pattern and propellant.
+- The DOP853 reference of tests/reference/eci_reference.py (two-body + J2, both bodies
   integrated absolutely in ECI at rtol 1e-13): the bundled coast scenario, built and run
   through `build_diagram`, must stay within 1 mm of it over 3000 s.
 
@@ -24,18 +25,18 @@ import math
 
 import numpy as np
 import pytest
-from test_orbital_dynamics import _eci_reference
 
 import rpod.diagrams.builder as builder_module
 from rpod.diagrams.builder import build_diagram
 from rpod.diagrams.simulate import simulate
 from rpod.models.frames import quaternion_wxyz, rotation_from_rpy_deg
 from rpod.models.gravity import R_EARTH_M
+from rpod.models.orbit import OrbitConfig
 from rpod.models.thrusters import planar_8, rcs_cube_12
 from rpod.scenarios.loader import load_scenario
-from rpod.systems.orbital_dynamics import OrbitConfig
-from rpod.systems.split_truth import SplitTruth
 from rpod.systems.truth import STATE_SIZE, Truth
+from tests.reference.eci_reference import eci_reference
+from tests.reference.split_truth import SplitTruth
 
 RTOL = 1e-12
 GRAVITIES = ("two_body_j2", "two_body", "cw", "free_space")
@@ -263,10 +264,10 @@ def test_coast_scenario_within_1mm_of_the_dop853_reference_over_3000_s():
     times = log["t"][1:]
     np.testing.assert_allclose(times, np.arange(300.0, 3000.1, 300.0))
     p0, v0 = np.asarray(coast.chaser.p_LC_L, float), np.asarray(coast.chaser.v_LC_L, float)
-    reference = _eci_reference(scenario.orbit, p0, v0, times)
+    reference = eci_reference(scenario.orbit, p0, v0, times)
     errors_p = np.linalg.norm(log["p_LC_L"][1:] - reference[:, 0:3], axis=1)
     errors_v = np.linalg.norm(log["v_LC_L"][1:] - reference[:, 3:6], axis=1)
-    # The requirement (tests/systems/test_orbital_dynamics.py): 1 mm and 1 um/s. Measured with
+    # The requirement (tests/reference/test_orbital_dynamics.py): 1 mm and 1 um/s. Measured with
     # the bundled integrator (runge_kutta5, accuracy 1e-8): 6.3e-9 m and 6.7e-12 m/s, below the
     # reference's own uncertainty (~1e-7 m: 7,000 km absolute positions subtracted).
     assert max(errors_p) < 1e-3, errors_p

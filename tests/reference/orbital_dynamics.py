@@ -1,7 +1,10 @@
 """Translational truth of target and chaser: two-body + J2, two-body, CW, or free space.
 
-Owns: the `OrbitConfig` (orbit and gravity model of a scenario) and the `OrbitalDynamics` system.
-Does not own: attitude (rpod.systems.rigid_body_attitude) or the thrusters (thruster_bank).
+Test-only reference (tests/reference, not part of the rpod package).
+Owns: the `OrbitalDynamics` system.
+Does not own: the orbit set-up (`OrbitConfig`, `initial_orbit_state`, `lvlh_of`:
+rpod.models.orbit), attitude (tests.reference.rigid_body_attitude) or the thrusters
+(rpod.systems.thruster_bank).
 
 Formulation (why it keeps the digits). Integrating target and chaser separately in ECI and
 subtracting leaves the ~100 m separation as the difference of two 7,000 km numbers, and the
@@ -23,11 +26,10 @@ fixed at the origin and L coincides with I.
 
 Where it is used. rpod.diagrams builds `rpod.systems.truth.Truth`, which integrates these
 equations together with both attitudes in one system (for speed; see its docstring). This system
-is the tested reference it is checked against (`rpod.systems.split_truth.SplitTruth`), and stays
-usable on its own, e.g. with a force given in L or I.
+is part of the tested reference it is checked against (`tests.reference.split_truth.SplitTruth`),
+and stays usable on its own, e.g. with a force given in L or I.
 """
 
-import dataclasses
 import math
 
 import numpy as np
@@ -36,59 +38,13 @@ from pydrake.systems.framework import BasicVector, LeafSystem
 from rpod.models.cw import cw_continuous
 from rpod.models.frames import (
     inertial_to_lvlh,
-    lvlh_angular_velocity,
     lvlh_rotation,
     lvlh_to_inertial,
     quaternion_wxyz,
     rotate_by_wxyz,
 )
-from rpod.models.gravity import (
-    GRAVITY_MODELS,
-    circular_orbit_state,
-    gravity_acceleration,
-    gravity_acceleration_xyz,
-)
-
-
-@dataclasses.dataclass
-class OrbitConfig:
-    """The target's orbit and the truth gravity model.
-
-    Args:
-        altitude_m: circular-orbit altitude above the equatorial radius (>= 100 km).
-        inclination_deg: orbit inclination.
-        raan_deg: right ascension of the ascending node.
-        arg_latitude_deg: argument of latitude of the target at t = 0.
-        gravity: one of 'two_body_j2', 'two_body', 'cw', 'free_space'.
-    """
-
-    altitude_m: float = 500e3
-    inclination_deg: float = 51.6
-    raan_deg: float = 0.0
-    arg_latitude_deg: float = 0.0
-    gravity: str = "two_body_j2"
-
-
-def initial_orbit_state(orbit: OrbitConfig) -> tuple[np.ndarray, np.ndarray]:
-    """(p_IT_I, v_IT_I) at t = 0: the circular orbit of `orbit`, or rest at the origin in free
-    space."""
-    if orbit.gravity == "free_space":
-        return np.zeros(3), np.zeros(3)
-    return circular_orbit_state(
-        orbit.altitude_m,
-        math.radians(orbit.inclination_deg),
-        math.radians(orbit.raan_deg),
-        math.radians(orbit.arg_latitude_deg),
-    )
-
-
-def lvlh_of(p_IT_I: np.ndarray, v_IT_I: np.ndarray, gravity: str) -> tuple[np.ndarray, np.ndarray]:
-    """(R_IL, w_IL_L) of the target's LVLH frame; identity and zero in free space."""
-    if gravity == "free_space":
-        return np.eye(3), np.zeros(3)
-    a_IT_I = gravity_acceleration(p_IT_I, gravity)
-    return lvlh_rotation(p_IT_I, v_IT_I), lvlh_angular_velocity(p_IT_I, v_IT_I, a_IT_I)
-
+from rpod.models.gravity import GRAVITY_MODELS, gravity_acceleration_xyz
+from rpod.models.orbit import OrbitConfig, initial_orbit_state, lvlh_of
 
 FORCE_FRAMES = ("C", "L", "I")
 

@@ -1,8 +1,9 @@
-"""Tests for rpod.systems.orbital_dynamics.OrbitalDynamics, simulated with a Drake Simulator.
+"""Tests for tests.reference.orbital_dynamics.OrbitalDynamics, simulated with a Drake Simulator.
 
 Independent truths used here:
 - a reference integrated with scipy's DOP853 at rtol 1e-13 from a right-hand side written in
-  this file (two-body + J2 in ECI, both bodies integrated absolutely, LVLH built here);
+  tests/reference/eci_reference.py (two-body + J2 in ECI, both bodies integrated absolutely,
+  LVLH built there);
 - the exact CW state-transition and zero-order-hold matrices (rpod.models.cw, themselves tested
   against matrix exponentials in tests/models/test_cw.py) and the quadratic approach of the
   nonlinear relative motion to them;
@@ -18,11 +19,18 @@ import math
 import numpy as np
 import pytest
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorConfig
-from scipy.integrate import solve_ivp
 
 from rpod.models.cw import cw_state_transition, cw_zoh_input
-from rpod.models.gravity import J2_EARTH, MU_EARTH_M3_S2, R_EARTH_M
-from rpod.systems.orbital_dynamics import OrbitalDynamics, OrbitConfig
+from rpod.models.gravity import MU_EARTH_M3_S2, R_EARTH_M
+from rpod.models.orbit import OrbitConfig
+
+from .eci_reference import (
+    circular_state_reference,
+    eci_reference,
+    gravity_reference,
+    lvlh_reference,
+)
+from .orbital_dynamics import OrbitalDynamics
 
 DEG = math.pi / 180.0
 OUTPUTS = {
@@ -60,94 +68,6 @@ def _simulator(system, wrench=None, mass_flow=0.0, attitude=None, accuracy=1e-10
 
 def _output(system, context, name):
     return system.GetOutputPort(name).Eval(context).copy()
-
-
-# ---- Independent reference: gravity, LVLH and circular orbit written out here. ----
-
-
-def _gravity_reference(p, with_j2=True):
-    """-mu p / r^3 plus J2 = -grad of mu J2 R^2 / r^3 P2(z/r), differentiated by hand."""
-    r2 = p @ p
-    r = math.sqrt(r2)
-    a = -MU_EARTH_M3_S2 / (r2 * r) * p
-    if with_j2:
-        c = 1.5 * J2_EARTH * MU_EARTH_M3_S2 * R_EARTH_M**2 / r**5
-        w = 5.0 * p[2] ** 2 / r2
-        a = a + c * np.array([p[0] * (w - 1.0), p[1] * (w - 1.0), p[2] * (w - 3.0)])
-    return a
-
-
-def _lvlh_reference(p, v, a):
-    """R_IL (x radial, z along p x v) and w_IL_L = [r a_n / h, 0, h / r^2]."""
-    h_vec = np.cross(p, v)
-    x = p / np.linalg.norm(p)
-    z = h_vec / np.linalg.norm(h_vec)
-    R_IL = np.column_stack([x, np.cross(z, x), z])
-    h = np.linalg.norm(h_vec)
-    r = np.linalg.norm(p)
-    return R_IL, np.array([r * (a @ z) / h, 0.0, h / r**2])
-
-
-def _circular_state_reference(altitude, inclination, raan, u):
-    """Rotate a circle in the x-y plane: Rz(raan) Rx(inclination) Rz(u) applied to [r, 0, 0]."""
-
-    def Rz(t):
-        return np.array([[math.cos(t), -math.sin(t), 0], [math.sin(t), math.cos(t), 0], [0, 0, 1]])
-
-    def Rx(t):
-        return np.array([[1, 0, 0], [0, math.cos(t), -math.sin(t)], [0, math.sin(t), math.cos(t)]])
-
-    r = R_EARTH_M + altitude
-    M = Rz(raan) @ Rx(inclination) @ Rz(u)
-    return M @ [r, 0.0, 0.0], M @ [0.0, math.sqrt(MU_EARTH_M3_S2 / r), 0.0]
-
-
-def _eci_reference(orbit, p_LC_L0, v_LC_L0, times, f_L=None, m0=1.0, mass_flow=0.0, with_j2=True):
-    """Both bodies integrated absolutely in ECI with DOP853; returns p_LC_L, v_LC_L at `times`.
-
-    The force f_L (default zero) is held constant in the target's LVLH frame, the mass is
-    m0 - mass_flow t.
-    """
-    f_L = np.zeros(3) if f_L is None else f_L
-    p_T, v_T = _circular_state_reference(
-        orbit.altitude_m,
-        orbit.inclination_deg * DEG,
-        orbit.raan_deg * DEG,
-        orbit.arg_latitude_deg * DEG,
-    )
-    R_IL, w = _lvlh_reference(p_T, v_T, _gravity_reference(p_T, with_j2))
-    p_C = p_T + R_IL @ p_LC_L0
-    v_C = v_T + R_IL @ (v_LC_L0 + np.cross(w, p_LC_L0))
-
-    def rhs(t, x):
-        R = _lvlh_reference(x[0:3], x[3:6], np.zeros(3))[0]
-        f_I = R @ f_L / (m0 - mass_flow * t)
-        return np.concatenate(
-            [
-                x[3:6],
-                _gravity_reference(x[0:3], with_j2),
-                x[9:12],
-                _gravity_reference(x[6:9], with_j2) + f_I,
-            ]
-        )
-
-    sol = solve_ivp(
-        rhs,
-        (0.0, times[-1]),
-        np.concatenate([p_T, v_T, p_C, v_C]),
-        method="DOP853",
-        rtol=1e-13,
-        atol=1e-9,
-        t_eval=times,
-    )
-    assert sol.success
-    out = []
-    for x in sol.y.T:
-        R_IL, w = _lvlh_reference(x[0:3], x[3:6], _gravity_reference(x[0:3], with_j2))
-        p_L = R_IL.T @ (x[6:9] - x[0:3])
-        v_L = R_IL.T @ (x[9:12] - x[3:6]) - np.cross(w, p_L)
-        out.append(np.concatenate([p_L, v_L]))
-    return np.array(out)
 
 
 # ---- Structure. ----
@@ -190,7 +110,7 @@ def test_initial_outputs(gravity):
     p0, v0 = np.array([10.0, -100.0, 5.0]), np.array([0.01, 0.0, -0.02])
     system = OrbitalDynamics(orbit, p0, v0, 123.0, "L")
     context = system.CreateDefaultContext()
-    p_T, v_T = _circular_state_reference(500e3, 51.6 * DEG, 30.0 * DEG, 40.0 * DEG)
+    p_T, v_T = circular_state_reference(500e3, 51.6 * DEG, 30.0 * DEG, 40.0 * DEG)
     # Tolerances: round-off of 7,000 km / 7.6 km/s states (1e-15 relative) and of the
     # LVLH <-> ECI round trip of a 100 m vector (1e-12 m, 1e-15 m/s).
     np.testing.assert_allclose(
@@ -203,7 +123,7 @@ def test_initial_outputs(gravity):
     np.testing.assert_allclose(rel[0:3], p0, rtol=0, atol=1e-12)
     np.testing.assert_allclose(rel[3:6], v0, rtol=0, atol=1e-15)
     with_j2 = gravity == "two_body_j2"
-    R_IL, w = _lvlh_reference(p_T, v_T, _gravity_reference(p_T, with_j2))
+    R_IL, w = lvlh_reference(p_T, v_T, gravity_reference(p_T, with_j2))
     chaser = _output(system, context, "chaser_state_I")
     np.testing.assert_allclose(chaser[0:3] - p_T, R_IL @ p0, rtol=0, atol=1e-8)
     np.testing.assert_allclose(chaser[3:6] - v_T, R_IL @ (v0 + np.cross(w, p0)), rtol=0, atol=1e-11)
@@ -232,7 +152,7 @@ def test_relative_motion_within_1mm_of_scipy_reference(accuracy):
     )
     p0, v0 = np.array([10.0, -100.0, 5.0]), np.array([0.01, 0.0, -0.02])
     times = np.arange(300.0, 3000.1, 300.0)
-    reference = _eci_reference(orbit, p0, v0, times)
+    reference = eci_reference(orbit, p0, v0, times)
     system = OrbitalDynamics(orbit, p0, v0, 100.0, "L")
     simulator, context = _simulator(system, accuracy=accuracy)
     errors_p, errors_v = [], []
@@ -268,7 +188,7 @@ def test_lvlh_force_and_mass_flow_in_orbit_match_reference():
     f_L = np.array([0.03, -0.04, 0.0])
     m0, mass_flow = 100.0, 1e-3
     times = np.array([500.0, 1000.0, 1500.0])
-    reference = _eci_reference(orbit, p0, v0, times, f_L=f_L, m0=m0, mass_flow=mass_flow)
+    reference = eci_reference(orbit, p0, v0, times, f_L=f_L, m0=m0, mass_flow=mass_flow)
     system = OrbitalDynamics(orbit, p0, v0, m0, "L")
     wrench = np.concatenate([[1.0, 2.0, 3.0], f_L])  # the torque part must be ignored
     simulator, context = _simulator(system, wrench=wrench, mass_flow=mass_flow)

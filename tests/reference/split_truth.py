@@ -1,5 +1,6 @@
 """The truth as it was before `Truth`: four systems wired into one Diagram with Truth's ports.
 
+Test-only reference (tests/reference, not part of the rpod package).
 Owns: `SplitTruth`, a Diagram of `OrbitalDynamics`, two `RigidBodyAttitude` and (with thrusters)
 `ThrusterBank`, connected as rpod.diagrams.builder connected them before the truth became one
 system (chaser attitude into the orbit's force rotation, the bank's torque into the chaser
@@ -18,10 +19,12 @@ import numpy as np
 from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, Demultiplexer
 
+from rpod.models.orbit import OrbitConfig
 from rpod.models.thrusters import ThrusterLayout
-from rpod.systems.orbital_dynamics import OrbitalDynamics, OrbitConfig
-from rpod.systems.rigid_body_attitude import RigidBodyAttitude
 from rpod.systems.thruster_bank import ThrusterBank
+
+from .orbital_dynamics import OrbitalDynamics
+from .rigid_body_attitude import RigidBodyAttitude
 
 
 class SplitTruth(Diagram):

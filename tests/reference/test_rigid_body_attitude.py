@@ -1,4 +1,4 @@
-"""Tests for rpod.systems.rigid_body_attitude: structure, derivatives, and simulated motion."""
+"""Tests for tests.reference.rigid_body_attitude: structure, derivatives, and simulated motion."""
 
 import numpy as np
 import pytest
@@ -12,7 +12,8 @@ from rpod.models.rigid_body import (
     quaternion_rate,
     rotational_kinetic_energy,
 )
-from rpod.systems.rigid_body_attitude import RigidBodyAttitude
+
+from .rigid_body_attitude import RigidBodyAttitude
 
 # Paper 000 eq. (27): the target's inertia [kg m^2].
 J_PAPER_000 = np.array(

@@ -1,5 +1,6 @@
 """Rotational dynamics of one rigid body (e.g. the tumbling target) as a Drake LeafSystem.
 
+Test-only reference (tests/reference, not part of the rpod package).
 Owns: integrating the attitude state ``[q_wxyz, w_B]`` of ``rpod.models.rigid_body`` in time,
 with an optional body torque input. Does not own: the equations (they live in
 ``rpod.models.rigid_body``), translation, or where the torque comes from.
@@ -11,8 +12,9 @@ norm drift stays at the integration tolerance, and a discrete projection would m
 hybrid for little gain.
 
 Where it is used. rpod.diagrams builds `rpod.systems.truth.Truth`, which integrates both bodies'
-attitudes with the orbits in one system (for speed). This system is the tested reference it is
-checked against (`rpod.systems.split_truth.SplitTruth`), and stays usable on its own.
+attitudes with the orbits in one system (for speed). This system is part of the tested
+reference it is checked against (`tests.reference.split_truth.SplitTruth`), and stays usable on
+its own.
 """
 
 import numpy as np
