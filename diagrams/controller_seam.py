@@ -20,7 +20,9 @@ or `controller: null` to coast). Each plug-in says, in one module:
 - `add_scene_extras(...)`: anything it draws in the Meshcat scene;
 - `load_warnings(config, scenario)`: what is legal but will likely fail (a hold point the
   thrusters cannot hold), said at load by `rpod run` and kept in summary.json's `warnings`;
-- optionally `make_plan(...)`, for `rpod plan`, and `campaign_table(rows)`, for `rpod report`.
+- optionally `make_plan(scenario, closed_loop)` -> `PlanOutput`, for `rpod plan`, and
+  `campaign_table(rows)` and `campaign_figures(rows, out_dir)`, for `rpod report`;
+- `run_figures()` and `log_shapes`: its own figures of a run.
 """
 
 from __future__ import annotations
@@ -28,10 +30,16 @@ from __future__ import annotations
 import dataclasses
 import enum
 import importlib.metadata
+import importlib.util
 import logging
+import os
+import pathlib
+import sys
+import types
 import typing
 
 ENTRY_POINT_GROUP = "rpod.controllers"
+PLUGINS_VARIABLE = "RPOD_PLUGINS"
 
 
 class Actuation(enum.Enum):
@@ -127,6 +135,30 @@ class ControllerResults:
     outcome: MissionOutcome | None = None
 
 
+@dataclasses.dataclass
+class PlanOutput:
+    """A planner's result as `rpod plan` writes it, whatever the planner (a plug-in's
+    `make_plan` returns one; rpod.scenarios.plan writes every one the same way).
+
+    Attributes:
+        status: the planner's status word (e.g. 'success', 'infeasible', 'check_failed').
+        passed: True when the plan is usable: the planner succeeded and the independent check
+            passed (`rpod plan` exits 0).
+        reason: one line saying why not, or what was planned.
+        arrays: name -> array, written to plan.npz (the plug-in documents them).
+        summary: JSON-safe entries of summary.json, after `status`, `passed` and `reason`.
+        figures: file name -> draw(arrays, title), returning a matplotlib Figure or None; import
+            plotting code inside draw.
+    """
+
+    status: str
+    passed: bool
+    reason: str = ""
+    arrays: dict = dataclasses.field(default_factory=dict)
+    summary: dict = dataclasses.field(default_factory=dict)
+    figures: dict = dataclasses.field(default_factory=dict)
+
+
 class ControllerPlugin:
     """Base class of a controller plug-in; see the module docstring for each hook."""
 
@@ -144,22 +176,25 @@ class ControllerPlugin:
         return self.actuation
 
     def validate(self, config, scenario) -> None:
-        """Raises ScenarioError (field relative to the scenario) on a bad config.
+        """Raises ConfigError (rpod.models.config), its field relative to the scenario.
 
-        The default calls config.validate() when the config has one, which raises
-        ValueError('field: message') with the field relative to the controller block, and
-        names the field `controller.<field>`. A plug-in that checks more calls this first.
+        The default checks the bounds every numeric field declares (check_bounds, nested
+        settings blocks included), then calls config.validate() when the config has one, which
+        raises ConfigError with the field relative to the controller block; both are named
+        `controller.<field>`. A plug-in that checks more calls this first.
         """
-        from rpod.diagrams.scenario import ScenarioError  # (scenario.py imports this module)
+        from rpod.models.config import ConfigError, check_bounds
 
-        check = getattr(config, "validate", None)
-        if check is None:
-            return
         try:
-            check()
-        except ValueError as error:
+            check_bounds(config)
+            check = getattr(config, "validate", None)
+            if check is not None:
+                check()
+        except ConfigError as error:
+            raise error.under("controller") from None
+        except ValueError as error:  # BRIDGE: until every validate() raises ConfigError
             field, _, message = str(error).partition(": ")
-            raise ScenarioError(f"controller.{field}", message) from None
+            raise ConfigError(f"controller.{field}", message) from None
 
     def load_warnings(self, config, scenario) -> list[str]:
         """Warnings about a valid config that will likely fail its mission (one line each,
@@ -203,7 +238,7 @@ class ControllerPlugin:
         default)."""
         return []
 
-    log_shapes: dict = {}
+    log_shapes: typing.ClassVar[dict] = {}
     """Log key -> its trailing shape, for the run figures' checks (rpod.diagrams.plots.RunLog):
     None (one value per sample), k (k columns) or -1 (any number of columns)."""
 
@@ -216,12 +251,14 @@ class ControllerPlugin:
         not import matplotlib."""
         return {}
 
-    make_plan = None  # optional: (scenario, closed_loop) -> a plan, for `rpod plan`
+    make_plan = None
+    """Optional: make_plan(scenario, closed_loop: bool) -> PlanOutput, the controller's plan
+    from the scenario's initial state without simulating, for `rpod plan`; `closed_loop` plans
+    what the closed loop's first plan is (its tightened margins), where that differs."""
 
 
 _PLUGINS: dict[str, ControllerPlugin] = {}
 _DEFAULT: list[str] = []
-_LISTENERS: list[typing.Callable[[], None]] = []
 _ENTRY_POINTS_LOADED = False
 
 
@@ -229,26 +266,21 @@ def register_controller(plugin: ControllerPlugin, *, default: bool = False) -> C
     """Makes a controller available to scenarios under the tag of its config class.
 
     Re-registering the same tag replaces the plug-in (a module reloaded in a notebook). The
-    scenario schema's controller union is refreshed at once.
+    scenario schema reads the registry whenever it reads a scenario (config_types), so a
+    plug-in registered at any time is a choice from then on.
     """
     if not dataclasses.is_dataclass(plugin.config_type):
         raise TypeError(f"{type(plugin).__name__}.config_type must be a dataclass")
     _PLUGINS[plugin.tag] = plugin
     if default:
         _DEFAULT[:] = [plugin.tag]
-    for listener in _LISTENERS:
-        listener()
     return plugin
 
 
-def on_registry_change(listener: typing.Callable[[], None]) -> None:
-    """Calls listener() now and after every registration (the schema keeps its union fresh)."""
-    _LISTENERS.append(listener)
-    listener()
-
-
 def load_entry_points() -> None:
-    """Imports the plug-in modules other packages declare (entry point group rpod.controllers).
+    """Imports the plug-in modules other packages declare (entry point group rpod.controllers),
+    then those the environment variable RPOD_PLUGINS names (load_plugin's forms, separated by
+    os.pathsep): how campaign workers get the plug-ins `--plugin` named.
 
     Each entry point names a module (or an object in one) whose import registers its
     controllers. A plug-in that fails to import is logged and skipped, never fatal.
@@ -262,6 +294,60 @@ def load_entry_points() -> None:
             entry.load()
         except Exception as error:  # noqa: BLE001  (a broken third-party plug-in must not break rpod)
             logging.getLogger("rpod").warning("controller plug-in %s: %s", entry.name, error)
+    for spec in filter(None, os.environ.get(PLUGINS_VARIABLE, "").split(os.pathsep)):
+        try:
+            load_plugin(spec)
+        except PluginLoadError as error:
+            logging.getLogger("rpod").warning("%s", error)
+
+
+class PluginLoadError(Exception):
+    """A plug-in module named on the command line could not be loaded (one line)."""
+
+
+def load_plugin(spec: str) -> types.ModuleType:
+    """Imports a plug-in module, which registers its controllers: a module name
+    (`mypackage.my_controller`) or the path of a Python file (`./my_controller.py`).
+
+    A file is imported under the module name `rpod_plugin_<stem>`, put in sys.modules so that
+    its configs pickle (campaign workers) and a second load is a no-op. Raises
+    PluginLoadError with one line naming the plug-in and the cause (its traceback is logged at
+    debug level).
+    """
+    path = pathlib.Path(spec)
+    try:
+        if spec.endswith(".py") or path.is_file():
+            if not path.is_file():
+                raise PluginLoadError(f"plug-in {spec}: no such file")
+            name = "rpod_plugin_" + "".join(c if c.isalnum() else "_" for c in path.stem)
+            if name in sys.modules:
+                return sys.modules[name]
+            module_spec = importlib.util.spec_from_file_location(name, path.resolve())
+            module = importlib.util.module_from_spec(module_spec)
+            sys.modules[name] = module
+            try:
+                module_spec.loader.exec_module(module)
+            except BaseException:
+                del sys.modules[name]
+                raise
+            return module
+        return importlib.import_module(spec)
+    except PluginLoadError:
+        raise
+    except (Exception, SystemExit) as error:  # any failure of foreign code
+        logging.getLogger("rpod").debug("plug-in %s", spec, exc_info=True)
+        cause = " ".join(f"{type(error).__name__}: {error}".split())
+        raise PluginLoadError(f"plug-in {spec}: cannot load: {cause[:200]}") from None
+
+
+def remember_plugin(spec: str) -> None:
+    """Adds a plug-in to RPOD_PLUGINS, so that processes started from here (campaign runners
+    and local Dask workers) load it too. Files are given by absolute path."""
+    if spec.endswith(".py") or pathlib.Path(spec).is_file():
+        spec = str(pathlib.Path(spec).resolve())
+    known = [s for s in os.environ.get(PLUGINS_VARIABLE, "").split(os.pathsep) if s]
+    if spec not in known:
+        os.environ[PLUGINS_VARIABLE] = os.pathsep.join([*known, spec])
 
 
 def controller_plugins() -> list[ControllerPlugin]:

@@ -18,6 +18,7 @@ from pydrake.systems.analysis import SimulatorConfig
 from rpod.diagrams import controller_seam
 from rpod.models import modulation
 from rpod.models import thrusters as presets
+from rpod.models.config import CHOICES_KEY, ConfigError
 from rpod.models.docking import DockingGeometry
 from rpod.models.frames import rotation_from_rpy_deg, rotation_from_wxyz
 from rpod.models.gravity import GRAVITY_MODELS, MIN_ALTITUDE_M
@@ -57,13 +58,8 @@ MAX_EVENTS = 100_000_000  # controller samples x PWM slots, and max-size integra
 QUATERNION_NORM_TOLERANCE = 1e-3  # |q| - 1 within this is normalised (4-digit entries pass)
 
 
-class ScenarioError(ValueError):
-    """A scenario field is invalid; `field` is its dotted path (e.g. 'target.inertia_kg_m2')."""
-
-    def __init__(self, field: str, message: str):
-        super().__init__(f"{field}: {message}")
-        self.field = field
-        self.message = message
+ScenarioError = ConfigError
+"""A scenario field is invalid; `field` is its dotted path (e.g. 'target.inertia_kg_m2')."""
 
 
 def _diag(values):
@@ -238,26 +234,18 @@ class Scenario:
     chaser: ChaserConfig = dataclasses.field(default_factory=ChaserConfig)
     target: TargetConfig = dataclasses.field(default_factory=TargetConfig)
     thrusters: ThrustersConfig = dataclasses.field(default_factory=ThrustersConfig)
-    # The annotation is the union of the registered controller configs (and None), kept up to
-    # date by _refresh_controller_union as plug-ins register.
-    controller: typing.Any = dataclasses.field(default_factory=controller_seam.default_config)
+    # A typed union whose members are the controller configs registered when a scenario is
+    # read (rpod.scenarios.schema reads CHOICES_KEY), and None.
+    controller: typing.Any = dataclasses.field(
+        default_factory=controller_seam.default_config,
+        metadata={CHOICES_KEY: controller_seam.config_types},
+    )
     duration_s: float = 600.0
     stop: StopConfig = dataclasses.field(default_factory=StopConfig)
     log_period_s: float = 1.0
     simulator: SimulatorConfig = dataclasses.field(default_factory=default_simulator_config)
     # The camera frames each run from its content unless the scenario places it.
     visualization: SceneConfig = dataclasses.field(default_factory=SceneConfig)
-
-
-def _refresh_controller_union() -> None:
-    """Scenario.controller's type: the union of the registered controller configs and None
-    (what pydrake's yaml_load_typed and yaml_dump_typed read, and the tag checks)."""
-    union = typing.Union[(*controller_seam.config_types(), type(None))]
-    Scenario.__dataclass_fields__["controller"].type = union
-    Scenario.__annotations__["controller"] = union
-
-
-controller_seam.on_registry_change(_refresh_controller_union)
 
 
 def make_thruster_layout(scenario: Scenario) -> ThrusterLayout:

@@ -45,31 +45,25 @@ import itertools
 import json
 import math
 import pathlib
-import re
-import typing
 import zlib
 
 import numpy as np
-from pydrake.common.yaml import yaml_dump_typed
 
 from rpod.diagrams.scenario import Scenario, ScenarioError, validate_scenario
 from rpod.models.gravity import R_EARTH_M, mean_motion
-from rpod.scenarios import sampling
+from rpod.scenarios import sampling, schema
 from rpod.scenarios.loader import (
     BUNDLED_DIR,
     ScenarioFileError,
-    _check,
-    is_record,
+    dump_scenario,
     load_scenario,
-    quote,
     read_yaml,
-    schema_fields,
 )
+from rpod.scenarios.schema import is_record, quote
 
 CAMPAIGNS_DIR = BUNDLED_DIR / "campaigns"
 TOP_LEVEL_KEYS = ("description", "base", "overrides", "timeout_s", "grid", "cases", "sample")
 SAMPLE_KEYS = ("count", "seed", "fields", "passively_safe")
-_TOKEN = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*)((?:\[\d+\])*)$")
 # Most runs one campaign may plan (cases x grid points x samples), refused at load before
 # anything is built: the plan holds every run in memory, and a million runs take minutes to plan.
 MAX_RUNS = 1_000_000
@@ -79,70 +73,9 @@ MAX_RUNS = 1_000_000
 # Dotted-path overrides of Scenario fields.
 
 
-def _tokens(path: str) -> list[tuple[str, list[int]]]:
-    """'chaser.p_LC_L[1]' -> [('chaser', []), ('p_LC_L', [1])]; ScenarioError when malformed."""
-    if not isinstance(path, str) or not path:
-        raise ScenarioError(str(path), "a field path must be a non-empty string")
-    tokens = []
-    for part in path.split("."):
-        match = _TOKEN.match(part)
-        if not match:
-            raise ScenarioError(path, f"malformed field path (at {quote(part)})")
-        tokens.append((match.group(1), [int(i) for i in re.findall(r"\d+", match.group(2))]))
-    return tokens
-
-
-def _union_choice(annotation, rest: list, path: str, walked: str):
-    """The choice of a typed union (Scenario.controller) that a path continues into.
-
-    Resolved by the rest of the path: the first choice in which all of it exists (e.g.
-    `controller.planner.dt_s` is !SoftCapture's even though !PlanarApproach has a `planner`
-    too), else the first that has the field named next, so that the error names the deeper
-    field. Whether the scenario's actual controller has it is checked where the value is set
-    (apply_overrides).
-    """
-    choices = [a for a in typing.get_args(annotation) if is_record(a)]
-    having = [c for c in choices if rest[0][0] in schema_fields(c)]
-    for choice in having:
-        try:
-            _walk(choice, rest, path, walked)
-        except ScenarioError:
-            continue
-        return choice
-    if having:
-        return having[0]
-    known = ", ".join(f"!{c.__name__}" for c in choices)
-    raise ScenarioError(
-        path, f"no controller ({known}) has a field {quote(rest[0][0])} in {walked}"
-    )
-
-
 def field_annotation(path: str):
     """The schema type of a dotted Scenario path; ScenarioError(path, ...) if there is none."""
-    return _walk(Scenario, _tokens(path), path, "")
-
-
-def _walk(annotation, tokens: list, path: str, walked: str):
-    """The type the tokens lead to from annotation (field_annotation's walk)."""
-    for position, (name, indices) in enumerate(tokens):
-        if typing.get_origin(annotation) is typing.Union:
-            annotation = _union_choice(annotation, tokens[position:], path, walked)
-        if not is_record(annotation):
-            raise ScenarioError(path, f"{walked} is a value, it has no field {quote(name)}")
-        hints = schema_fields(annotation)
-        if name not in hints:
-            where = f" of {walked}" if walked else ""
-            raise ScenarioError(
-                path, f"unknown field {quote(name)}{where} (known: {', '.join(hints)})"
-            )
-        annotation = hints[name]
-        walked = f"{walked}.{name}" if walked else name
-        for index in indices:
-            if typing.get_origin(annotation) is not list:
-                raise ScenarioError(path, f"{walked} is not a list, it cannot take [{index}]")
-            annotation = typing.get_args(annotation)[0]
-            walked += f"[{index}]"
-    return annotation
+    return schema.path_type(Scenario, path)
 
 
 def check_value(path: str, value, location: str) -> None:
@@ -150,17 +83,12 @@ def check_value(path: str, value, location: str) -> None:
     annotation = field_annotation(path)
     if is_record(annotation):
         raise ScenarioError(location, f"{path} is a group of fields; name one of its fields")
-    _check(value, annotation, location)
+    schema.check(value, annotation, location)
 
 
 def _coerce(value, annotation):
-    """Plain YAML data that passed _check -> the field's Python type (ints become floats)."""
-    if annotation is float:
-        return float(value)
-    if typing.get_origin(annotation) is list:
-        (item,) = typing.get_args(annotation)
-        return [_coerce(v, item) for v in value]
-    return value
+    """Plain YAML data that passed the check -> the field's Python type (ints become floats)."""
+    return schema.build(value, annotation)
 
 
 def flatten_overrides(mapping, location: str, prefix: str = "") -> dict:
@@ -188,7 +116,7 @@ def flatten_overrides(mapping, location: str, prefix: str = "") -> dict:
 def _require_field(node, name: str, path: str, walked: str) -> None:
     """ScenarioError unless the dataclass instance has the field: a typed union (the
     controller) whose actual choice lacks a field that another choice has."""
-    fields = schema_fields(type(node)) if node is not None else None
+    fields = schema.record_fields(type(node)) if node is not None else None
     if fields is None or name not in fields:
         what = "null" if node is None else f"!{type(node).__name__}"
         raise ScenarioError(path, f"{walked} is {what}, which has no field {quote(name)}")
@@ -203,8 +131,8 @@ def apply_overrides(scenario: Scenario, overrides: dict) -> Scenario:
     scenario = copy.deepcopy(scenario)
     for path, value in overrides.items():
         annotation = field_annotation(path)
-        _check(value, annotation, path)
-        tokens = _tokens(path)
+        schema.check(value, annotation, path)
+        tokens = schema.path_tokens(path)
         parent, walked = scenario, ""
         for name, indices in tokens[:-1]:
             _require_field(parent, name, path, walked)
@@ -215,7 +143,7 @@ def apply_overrides(scenario: Scenario, overrides: dict) -> Scenario:
         name, indices = tokens[-1]
         _require_field(parent, name, path, walked)
         if not indices:
-            setattr(parent, name, _coerce(value, annotation))
+            setattr(parent, name, schema.build(value, annotation, getattr(parent, name)))
             continue
         container = getattr(parent, name)
         for index in indices[:-1]:
@@ -276,7 +204,7 @@ class Campaign:
     @property
     def base_yaml(self) -> str:
         """The base scenario (after `overrides`) as YAML, every field written."""
-        return yaml_dump_typed(self.base)
+        return dump_scenario(self.base)
 
     def with_seed(self, seed: int) -> "Campaign":
         """The same campaign with another sampling seed."""
@@ -341,7 +269,7 @@ def _parse_grid(data) -> dict:
             raise ScenarioError(location, f"{path} is a group of fields; name one of its fields")
         seen = {}  # canonical JSON of each value as the field holds it (1 and 1.0 are one value)
         for index, value in enumerate(values):
-            _check(value, annotation, f"{location}[{index}]")
+            schema.check(value, annotation, f"{location}[{index}]")
             key = json.dumps(_coerce(value, annotation), sort_keys=True)
             if key in seen:
                 raise ScenarioError(
@@ -560,7 +488,7 @@ def plain_data(value):
     """A scenario (or any part of it) as plain JSON data: dataclasses and Drake's bound configs
     (SimulatorConfig) as dicts of their fields; the controller, a typed union, with its tag
     under '_tag' (two controllers with the same fields are different runs)."""
-    fields = schema_fields(type(value)) if value is not None else None
+    fields = schema.record_fields(type(value)) if value is not None else None
     if fields is not None:
         data = {name: plain_data(getattr(value, name)) for name in fields}
         if "controller" in data and data["controller"] is not None:

@@ -27,6 +27,11 @@ SET_HELP = (
     "override one field, a dotted path with a YAML value (repeatable): "
     "--set chaser.mass_kg=400 --set 'chaser.p_LC_L=[0, -40, 0]' --set controller.hold_distance_m=5"
 )
+PLUGIN_HELP = (
+    "load a controller plug-in first (repeatable): a module name or a Python file that calls "
+    "rpod.diagrams.controller_seam.register_controller; sweeps pass it on to their workers "
+    "through the RPOD_PLUGINS environment variable"
+)
 
 
 def _description(path: pathlib.Path) -> str:
@@ -65,7 +70,8 @@ def _load_with_sets(name_or_path: str, sets: list[str]):
         return name, scenario
     from rpod.diagrams.scenario import ScenarioError, validate_scenario
     from rpod.scenarios.campaign import apply_overrides, check_value
-    from rpod.scenarios.loader import quote, read_yaml
+    from rpod.scenarios.loader import read_yaml
+    from rpod.scenarios.schema import quote
 
     overrides = {}
     for item in sets:
@@ -369,7 +375,24 @@ def make_parser() -> argparse.ArgumentParser:
     report.set_defaults(handler=_cmd_report)
     listing = commands.add_parser("list", help="list bundled scenarios and campaigns")
     listing.set_defaults(handler=_cmd_list)
+    for command in (run, plan, sweep, report):
+        command.add_argument(
+            "--plugin", action="append", default=[], metavar="MODULE_OR_FILE", help=PLUGIN_HELP
+        )
     return parser
+
+
+def _load_plugins(specs: list[str]) -> None:
+    """Imports the `--plugin` modules (they register their controllers) and names them in
+    RPOD_PLUGINS for the processes a sweep starts; ScenarioFileError (one line) on a failure."""
+    from rpod.diagrams.controller_seam import PluginLoadError, load_plugin, remember_plugin
+
+    for spec in specs:
+        try:
+            load_plugin(spec)
+        except PluginLoadError as error:
+            raise ScenarioFileError(str(error)) from None
+        remember_plugin(spec)
 
 
 class _StderrHandler(logging.Handler):
@@ -396,6 +419,7 @@ def main(argv=None) -> int:
     _say_compiles()
     args = make_parser().parse_args(argv)
     try:
+        _load_plugins(getattr(args, "plugin", []))
         return args.handler(args)
     except ScenarioFileError as error:
         print(f"rpod: error: {error}", file=sys.stderr)

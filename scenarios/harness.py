@@ -26,7 +26,7 @@ the task on another worker. After `distributed.scheduler.allowed-failures` worke
 future raises KilledWorker, and the driver records "worker died: ...".
 
 Plain data only crosses the wire: the request is a dict of strings, numbers and lists (the
-base scenario as YAML text from yaml_dump_typed, and the run's dotted-path overrides). The
+base scenario as YAML text from loader.dump_scenario, and the run's dotted-path overrides). The
 diagram is built inside the runner.
 
 Test hook (honoured here only, never by a campaign file): the environment variable
@@ -306,11 +306,10 @@ def _execute(request: dict, bases: dict) -> dict:
     """Runs one request in this process; the reply record (failures included)."""
     import pathlib
 
-    from pydrake.common.yaml import yaml_load_typed
-
-    from rpod.diagrams.scenario import Scenario, validate_scenario
+    from rpod.diagrams.scenario import validate_scenario
     from rpod.diagrams.simulate import simulate
     from rpod.scenarios.campaign import apply_overrides
+    from rpod.scenarios.loader import build_scenario
     from rpod.scenarios.run import run_to_folder
 
     start = time.perf_counter()
@@ -319,7 +318,7 @@ def _execute(request: dict, bases: dict) -> dict:
         base_yaml = request["base_yaml"]
         if base_yaml not in bases:
             bases.clear()  # one campaign at a time: keep one base
-            bases[base_yaml] = yaml_load_typed(schema=Scenario, data=base_yaml, defaults=Scenario())
+            bases[base_yaml] = build_scenario(base_yaml, "the campaign's base")
         scenario = apply_overrides(bases[base_yaml], request["overrides"])
         validate_scenario(scenario)
         if request.get("save_dir"):

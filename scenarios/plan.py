@@ -37,12 +37,11 @@ import math
 import pathlib
 
 import numpy as np
-from pydrake.common.yaml import yaml_dump_typed
 
 from rpod.diagrams import controller_seam
 from rpod.diagrams.plan_plots import write_plan_plots
 from rpod.diagrams.scenario import Scenario
-from rpod.scenarios.loader import ScenarioFileError
+from rpod.scenarios.loader import ScenarioFileError, dump_scenario
 from rpod.scenarios.run import check_out_dir, staged_folder
 
 
@@ -163,7 +162,7 @@ def plan_to_folder(
     with staged_folder(out_dir, overwrite) as staging:
         arrays = plan_arrays(result, None if report is None else report.alpha_check)
         np.savez_compressed(staging / "plan.npz", **arrays)
-        (staging / "scenario.yaml").write_text(yaml_dump_typed(scenario))
+        (staging / "scenario.yaml").write_text(dump_scenario(scenario))
         summary = plan_summary(name, result, report)
         summary["plots"] = [p.name for p in write_plan_plots(arrays, staging / "plots", name)]
         # summary.json last: its presence marks a complete plan inside the folder too.

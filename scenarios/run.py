@@ -56,13 +56,13 @@ import signal
 import threading
 
 import numpy as np
-from pydrake.common.yaml import yaml_dump_typed
 
 from rpod.diagrams.controller_seam import plugin_for
 from rpod.diagrams.plots import write_plots
 from rpod.diagrams.scenario import Scenario
 from rpod.diagrams.simulate import simulate
-from rpod.scenarios.loader import ScenarioFileError, quote
+from rpod.scenarios.loader import ScenarioFileError, dump_scenario
+from rpod.scenarios.schema import quote
 
 MANIFEST = ".rpod-output"  # the list of what rpod wrote, in every output folder
 MANIFEST_FORMAT = 1
@@ -413,7 +413,7 @@ def run_to_folder(
             progress.phase("writing the log, the plots" + (" and the recording" if record else ""))
         summary = {"scenario": name, **result.summary}
         np.savez_compressed(staging / "log.npz", **result.log)
-        (staging / "scenario.yaml").write_text(yaml_dump_typed(scenario))
+        (staging / "scenario.yaml").write_text(dump_scenario(scenario))
         plugin = plugin_for(scenario.controller)  # its own figures beside the generic ones
         plots = write_plots(result.log, staging / "plots", name, [plugin] if plugin else [])
         summary["plots"] = [p.name for p in plots]

@@ -32,7 +32,7 @@ from pydrake.math import RollPitchYaw, RotationMatrix
 from rpod.diagrams.scenario import ScenarioError
 from rpod.models.cw import passively_safe_state
 from rpod.planners.pointing import min_rotation
-from rpod.scenarios.loader import quote
+from rpod.scenarios.schema import quote
 
 DISTRIBUTIONS = ("uniform", "normal", "log_uniform", "choice", "direction", "attitude")
 

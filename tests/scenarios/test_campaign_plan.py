@@ -14,7 +14,6 @@ import sys
 import numpy as np
 import pytest
 from campaign_helpers import SMALL_CAMPAIGN, run_rpod
-from pydrake.common.yaml import yaml_dump_typed
 
 from rpod.diagrams.scenario import ScenarioError
 from rpod.diagrams.simulate import simulate
@@ -29,7 +28,7 @@ from rpod.scenarios.campaign import (
     load_campaign,
     plan_runs,
 )
-from rpod.scenarios.loader import ScenarioFileError, load_scenario
+from rpod.scenarios.loader import ScenarioFileError, dump_scenario, load_scenario
 
 
 def campaign_from(text: str, tmp_path, name: str = "c"):
@@ -166,15 +165,15 @@ def test_overrides_reach_the_simulation(tmp_path):
     )
     planned = apply_overrides(campaign.base, run.overrides)
     # As YAML: Drake's SimulatorConfig (a bound C++ type) has no value equality.
-    assert yaml_dump_typed(planned) == yaml_dump_typed(by_hand)
+    assert dump_scenario(planned) == dump_scenario(by_hand)
     assert simulate(planned).summary["final_p_LC_L"] == simulate(by_hand).summary["final_p_LC_L"]
 
 
 def test_apply_overrides_does_not_touch_the_base(tmp_path):
     campaign = campaign_from(SMALL_CAMPAIGN, tmp_path)
-    before = yaml_dump_typed(campaign.base)
+    before = dump_scenario(campaign.base)
     apply_overrides(campaign.base, {"chaser.p_LC_L[1]": -1.0, "chaser.mass_kg": 1})
-    assert yaml_dump_typed(campaign.base) == before
+    assert dump_scenario(campaign.base) == before
 
 
 def test_nested_override_mappings_are_flattened(tmp_path):

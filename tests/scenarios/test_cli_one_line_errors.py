@@ -3,12 +3,11 @@ field (or the flag), no traceback, for the YAML and command-line cases a hostile
 found; and an empty scenario file runs with the defaults, as the README promises."""
 
 import pytest
-from pydrake.common.yaml import yaml_dump_typed
 from test_cli_bad_input import assert_one_line_error, run_rpod
 
 from rpod.diagrams.scenario import Scenario
 from rpod.scenarios.campaign import parse_campaign, plan_runs
-from rpod.scenarios.loader import parse_scenario
+from rpod.scenarios.loader import dump_scenario, parse_scenario
 
 
 def _bomb() -> str:
@@ -72,9 +71,9 @@ def test_command_line_errors_are_one_line_with_the_help_hint(tmp_path, case, arg
 
 def test_empty_and_comment_only_files_mean_every_default():
     # Compared as YAML: Drake's SimulatorConfig (a bound C++ type) has no value equality.
-    defaults = yaml_dump_typed(Scenario())
-    assert yaml_dump_typed(parse_scenario("", "empty.yaml")) == defaults
-    assert yaml_dump_typed(parse_scenario("# nothing here\n\n", "comments.yaml")) == defaults
+    defaults = dump_scenario(Scenario())
+    assert dump_scenario(parse_scenario("", "empty.yaml")) == defaults
+    assert dump_scenario(parse_scenario("# nothing here\n\n", "comments.yaml")) == defaults
 
 
 def test_campaign_with_an_empty_base_file_plans(tmp_path):

@@ -2,10 +2,9 @@
 retired after its run, and the next run gets a fresh one (each simulate() leaves some memory
 behind; a long campaign must not pile it up)."""
 
-from pydrake.common.yaml import yaml_dump_typed
-
 from rpod.diagrams.scenario import Scenario
 from rpod.scenarios import harness
+from rpod.scenarios.loader import dump_scenario
 
 
 def _request(run_id: str) -> dict:
@@ -13,7 +12,7 @@ def _request(run_id: str) -> dict:
     return {
         "run_id": run_id,
         "case": "",
-        "base_yaml": yaml_dump_typed(base),
+        "base_yaml": dump_scenario(base),
         "overrides": {},
         "timeout_s": 120.0,
         "save_dir": None,
