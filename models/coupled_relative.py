@@ -7,15 +7,18 @@ AutoDiffXd or symbolic.Expression, so that a planner gets exact derivatives of t
 - the continuous dynamics x_dot = f(x, u): relative attitude on SO(3) (eq. 3), relative angular
   velocity (eq. 4), the feature-point relative translation (eqs. 7-10) with two-body orbits of
   both bodies (eq. 6), the wrench of the eight gimbaled thrusters (eqs. 11-12, through
-  `rpod.models.thrusters.wrench_from_forces`) and the integral state (eq. 14);
-- the eigenaxis error (eq. 5), the gimbal polyhedron (eq. 16), the magnitude limit (eq. 17), the
-  line-of-sight polyhedron (eq. 18) softened by slacks (Sec. IV), and the stage and terminal costs
-  (eqs. 20-21) with the paper's Sec. IV weights;
+  `rpod.models.gimbal.wrench_from_forces`) and the integral state (eq. 14);
+- the eigenaxis error (eq. 5), the magnitude limit (eq. 17), the line-of-sight polyhedron
+  (eq. 18) softened by slacks (Sec. IV), and the stage and terminal costs (eqs. 20-21) with the
+  paper's Sec. IV weights;
 - conversions between this relative state and the two bodies' absolute states.
 
 Does not own: the optimal control problem (22), its transcription or solver (a planner builds
 them from these functions), the truth simulation (rpod.systems), or perturbations (the paper's
-f_p and tau_d are zero here: this is the prediction model).
+f_p and tau_d are zero here: this is the prediction model); the gimbal pyramid (eq. 16), its
+block matrix and the force-to-wrench matrix (rpod.models.gimbal, whose
+`gimbal_constraint_matrix` is still reachable here for the planners that read it from this
+module); the cross product and its matrix (rpod.models.frames).
 
 Frames and names (paper 001 -> rpod monogram). I: ECI (the paper's F_e); T: target body (F_t),
 origin at its centre of mass t; C: chaser body (F_c), origin at c; Pt: the target feature point
@@ -92,14 +95,16 @@ from typing import NamedTuple
 import numpy as np
 import pydrake.math
 
-from rpod.models.gravity import MU_EARTH_M3_S2, circular_orbit_state, two_body_acceleration
-from rpod.models.rigid_body import angular_acceleration
-from rpod.models.thrusters import (
-    ThrusterLayout,
-    gimbal_polyhedron,
-    gimbaled_cuboid_8,
+from rpod.models.frames import cross, cross_rows, skew, skew_rows
+from rpod.models.gimbal import (
+    force_to_wrench_matrix,
+    gimbal_constraint_matrix,  # noqa: F401  (planners read it as cr.gimbal_constraint_matrix)
+    pyramid_polyhedron,
     wrench_from_forces,
 )
+from rpod.models.gravity import MU_EARTH_M3_S2, circular_orbit_state, two_body_acceleration
+from rpod.models.rigid_body import angular_acceleration
+from rpod.models.thrusters import ThrusterLayout, gimbaled_cuboid_8
 
 # --------------------------------------------------------------------------------------------
 # Layouts.
@@ -299,20 +304,6 @@ def pack_state(state: CoupledState) -> np.ndarray:
 # Scalar-generic helpers (products and sums only, so AutoDiffXd and Expression pass through).
 
 
-def _cross(a, b) -> np.ndarray:
-    """a x b for 3-vectors of any scalar type."""
-    a0, a1, a2 = np.asarray(a).tolist()
-    b0, b1, b2 = np.asarray(b).tolist()
-    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
-
-
-def skew(w) -> np.ndarray:
-    """The cross-product matrix w^x (3, 3) of Sec. II-A: skew(w) @ v = w x v."""
-    w0, w1, w2 = np.asarray(w).tolist()
-    zero = 0.0 * w0  # keeps the scalar type (AutoDiffXd, Expression) of the other entries
-    return np.array([[zero, -w2, w1], [w2, zero, -w0], [-w1, w0, zero]])
-
-
 def _dot(a, b):
     a0, a1, a2 = np.asarray(a).tolist()
     b0, b1, b2 = np.asarray(b).tolist()
@@ -351,7 +342,7 @@ def chaser_wrench(params: CoupledRelativeParams, u) -> np.ndarray:
     """Body wrench [tau_C; f_C] (6,) of the eight thrust vectors (eqs. 11-12), in C.
 
     f_C = sum_k f_k (eq. 11) and tau_C = sum_k p_CK_C x f_k (eq. 12), from
-    `rpod.models.thrusters.wrench_from_forces` (scalar-generic).
+    `rpod.models.gimbal.wrench_from_forces` (scalar-generic).
     """
     return wrench_from_forces(params.layout, thruster_forces_C(u))
 
@@ -377,7 +368,7 @@ def relative_angular_acceleration(
     w_IC_C = R_TC.T @ w_IC_T
     w_IC_C_dot = angular_acceleration(params.J_c, w_IC_C, tau_C, params.J_c_inv)  # eq. 2
     w_IT_T_dot = angular_acceleration(params.J_t, w_IT_T, None, params.J_t_inv)  # eq. 2
-    return R_TC @ w_IC_C_dot - w_IT_T_dot + _cross(w_TC_T, w_IC_T)  # eq. 4
+    return R_TC @ w_IC_C_dot - w_IT_T_dot + cross(w_TC_T, w_IC_T)  # eq. 4
 
 
 def dynamics(x, u, params: CoupledRelativeParams) -> np.ndarray:
@@ -405,19 +396,19 @@ def dynamics(x, u, params: CoupledRelativeParams) -> np.ndarray:
     # Translation (eqs. 6-10).
     p_PcC_T = R_TC @ params.p_CPc_C  # r_pc/c resolved in T
     d_T = s.p_PtPc_T - p_PcC_T + params.p_TPt_T  # r^t_c/t from eq. 7
-    d_T_dot = s.v_PtPc_T - _cross(w_TC_T, p_PcC_T)  # t-derivative of r_c/t from eq. 8
-    u_T = d_T_dot + _cross(w_IT_T, d_T)  # R_t/e^T (r_c/e-dot - r_t/e-dot), transport theorem
+    d_T_dot = s.v_PtPc_T - cross(w_TC_T, p_PcC_T)  # t-derivative of r_c/t from eq. 8
+    u_T = d_T_dot + cross(w_IT_T, d_T)  # R_t/e^T (r_c/e-dot - r_t/e-dot), transport theorem
     d_I = R_IT @ d_T
     gravity_diff_T = R_IT.T @ differential_two_body_acceleration(s.p_IT_I, d_I, params.mu)
     a_rel_T = gravity_diff_T + (R_TC @ f_C) / params.chaser_mass_kg  # R_t/e^T (eq. 6 c - t)
     d_T_ddot = (
         a_rel_T
-        - 2.0 * _cross(w_IT_T, u_T)
-        - _cross(w_IT_T_dot, d_T)
-        + _cross(w_IT_T, _cross(w_IT_T, d_T))
+        - 2.0 * cross(w_IT_T, u_T)
+        - cross(w_IT_T_dot, d_T)
+        + cross(w_IT_T, cross(w_IT_T, d_T))
     )  # eq. 10 (module docstring choice 2)
     p_ddot_T = (
-        d_T_ddot + _cross(w_TC_T_dot, p_PcC_T) + _cross(w_TC_T, _cross(w_TC_T, p_PcC_T))
+        d_T_ddot + cross(w_TC_T_dot, p_PcC_T) + cross(w_TC_T, cross(w_TC_T, p_PcC_T))
     )  # eq. 9
     xi_dot = integral_state_rate(s.p_PtPc_T)  # eq. 14
     p_IT_I_dot = s.v_IT_I  # eq. 6 (target)
@@ -436,25 +427,6 @@ def dynamics(x, u, params: CoupledRelativeParams) -> np.ndarray:
             v_IT_I_dot,
         ]
     )
-
-
-def _cross_rows(a, b) -> np.ndarray:
-    """Row-wise a x b for (B, 3) arrays (float or complex; no conjugation)."""
-    a0, a1, a2 = a[:, 0], a[:, 1], a[:, 2]
-    b0, b1, b2 = b[:, 0], b[:, 1], b[:, 2]
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape), dtype=np.result_type(a, b))
-    out[:, 0] = a1 * b2 - a2 * b1
-    out[:, 1] = a2 * b0 - a0 * b2
-    out[:, 2] = a0 * b1 - a1 * b0
-    return out
-
-
-def _skew_rows(w) -> np.ndarray:
-    """[w_b]x (B, 3, 3) for rows w (B, 3)."""
-    S = np.zeros((w.shape[0], 3, 3), dtype=w.dtype)
-    S[:, 0, 1], S[:, 0, 2], S[:, 1, 2] = -w[:, 2], w[:, 1], -w[:, 0]
-    S[:, 1, 0], S[:, 2, 0], S[:, 2, 1] = w[:, 2], -w[:, 1], w[:, 0]
-    return S
 
 
 def _matvec_rows(R, v) -> np.ndarray:
@@ -494,19 +466,19 @@ def dynamics_batch(
     tau_C, f_C = wrench[:, :3], wrench[:, 3:]
 
     # Attitude (eqs. 1-4).
-    R_TC_dot = np.matmul(_skew_rows(w_TC_T), R_TC)  # eq. 3: [w]x R
+    R_TC_dot = np.matmul(skew_rows(w_TC_T), R_TC)  # eq. 3: [w]x R
     w_IC_T = w_TC_T + w_IT_T
     w_IC_C = _matTvec_rows(R_TC, w_IC_T)
-    w_IC_C_dot = (_cross_rows(w_IC_C @ params.J_c.T, w_IC_C) + tau_C) @ params.J_c_inv.T  # eq. 2
-    w_IT_T_dot = _cross_rows(w_IT_T @ params.J_t.T, w_IT_T) @ params.J_t_inv.T  # eq. 2
-    w_TC_T_dot = _matvec_rows(R_TC, w_IC_C_dot) - w_IT_T_dot + _cross_rows(w_TC_T, w_IC_T)  # eq. 4
-    R_IT_dot = np.matmul(R_IT, _skew_rows(w_IT_T))  # eq. 1: R [w]x
+    w_IC_C_dot = (cross_rows(w_IC_C @ params.J_c.T, w_IC_C) + tau_C) @ params.J_c_inv.T  # eq. 2
+    w_IT_T_dot = cross_rows(w_IT_T @ params.J_t.T, w_IT_T) @ params.J_t_inv.T  # eq. 2
+    w_TC_T_dot = _matvec_rows(R_TC, w_IC_C_dot) - w_IT_T_dot + cross_rows(w_TC_T, w_IC_T)  # eq. 4
+    R_IT_dot = np.matmul(R_IT, skew_rows(w_IT_T))  # eq. 1: R [w]x
 
     # Translation (eqs. 6-10), as `dynamics`.
     p_PcC_T = R_TC @ params.p_CPc_C
     d_T = p_PtPc_T - p_PcC_T + params.p_TPt_T  # eq. 7
-    d_T_dot = v_PtPc_T - _cross_rows(w_TC_T, p_PcC_T)  # eq. 8
-    u_T = d_T_dot + _cross_rows(w_IT_T, d_T)
+    d_T_dot = v_PtPc_T - cross_rows(w_TC_T, p_PcC_T)  # eq. 8
+    u_T = d_T_dot + cross_rows(w_IT_T, d_T)
     d_I = _matvec_rows(R_IT, d_T)
     rt2 = np.sum(p_IT_I * p_IT_I, axis=1)
     r_c_I = p_IT_I + d_I
@@ -519,14 +491,12 @@ def dynamics_batch(
     a_rel_T = _matTvec_rows(R_IT, gravity_diff_I) + _matvec_rows(R_TC, f_C) / params.chaser_mass_kg
     d_T_ddot = (
         a_rel_T
-        - 2.0 * _cross_rows(w_IT_T, u_T)
-        - _cross_rows(w_IT_T_dot, d_T)
-        + _cross_rows(w_IT_T, _cross_rows(w_IT_T, d_T))
+        - 2.0 * cross_rows(w_IT_T, u_T)
+        - cross_rows(w_IT_T_dot, d_T)
+        + cross_rows(w_IT_T, cross_rows(w_IT_T, d_T))
     )  # eq. 10
     p_ddot_T = (
-        d_T_ddot
-        + _cross_rows(w_TC_T_dot, p_PcC_T)
-        + _cross_rows(w_TC_T, _cross_rows(w_TC_T, p_PcC_T))
+        d_T_ddot + cross_rows(w_TC_T_dot, p_PcC_T) + cross_rows(w_TC_T, cross_rows(w_TC_T, p_PcC_T))
     )  # eq. 9
     v_IT_I_dot = -params.mu * p_IT_I / (rt2 * rt)[:, None]  # eq. 6 (target)
 
@@ -553,12 +523,9 @@ def target_dynamics(x_target: np.ndarray, params: CoupledRelativeParams) -> np.n
     R_IT = x_target[0:9].reshape(3, 3)
     w = x_target[9:12]
     p = x_target[12:15]
-    h = params.J_t @ w
-    w0, w1, w2 = w
-    gyro = np.array([h[1] * w2 - h[2] * w1, h[2] * w0 - h[0] * w2, h[0] * w1 - h[1] * w0])
     out = np.empty(18)
-    out[9:12] = params.J_t_inv @ gyro  # eq. 2, torque-free
-    out[0:9] = (R_IT @ np.array([[0.0, -w2, w1], [w2, 0.0, -w0], [-w1, w0, 0.0]])).reshape(9)
+    out[9:12] = params.J_t_inv @ cross(params.J_t @ w, w)  # eq. 2, torque-free
+    out[0:9] = (R_IT @ skew(w)).reshape(9)
     r2 = p @ p
     out[12:15] = x_target[15:18]
     out[15:18] = (-params.mu / (r2 * math.sqrt(r2))) * p  # eq. 6
@@ -566,10 +533,11 @@ def target_dynamics(x_target: np.ndarray, params: CoupledRelativeParams) -> np.n
 
 
 def _force_to_wrench_matrix(params: CoupledRelativeParams) -> np.ndarray:
-    """M (6, 24) with [tau_C; f_C] = M u (eqs. 11-12 are linear in u), cached on params."""
+    """M (6, 24) with [tau_C; f_C] = M u (eqs. 11-12 are linear in u): the layout's
+    `rpod.models.gimbal.force_to_wrench_matrix`, cached on params."""
     M = getattr(params, "_wrench_matrix", None)
     if M is None:
-        M = np.stack([chaser_wrench(params, e) for e in np.eye(INPUT_SIZE)], axis=1)
+        M = force_to_wrench_matrix(params.layout)
         params._wrench_matrix = M
     return M
 
@@ -609,8 +577,8 @@ def relative_state_from_absolute(
     d_T = R_IT.T @ (np.asarray(p_IC_I) - np.asarray(p_IT_I))
     p_PcC_T = R_TC @ params.p_CPc_C
     p_PtPc_T = d_T + p_PcC_T - params.p_TPt_T  # eq. 7
-    d_T_dot = R_IT.T @ (np.asarray(v_IC_I) - np.asarray(v_IT_I)) - _cross(w_IT_T, d_T)
-    v_PtPc_T = d_T_dot + _cross(w_TC_T, p_PcC_T)  # eq. 8
+    d_T_dot = R_IT.T @ (np.asarray(v_IC_I) - np.asarray(v_IT_I)) - cross(w_IT_T, d_T)
+    v_PtPc_T = d_T_dot + cross(w_TC_T, p_PcC_T)  # eq. 8
     return pack_state(
         CoupledState(
             R_TC=R_TC,
@@ -633,9 +601,9 @@ def chaser_absolute_state(params: CoupledRelativeParams, x) -> tuple[np.ndarray,
     w_IC_C = s.R_TC.T @ (s.w_TC_T + s.w_IT_T)
     p_PcC_T = s.R_TC @ params.p_CPc_C
     d_T = s.p_PtPc_T - p_PcC_T + params.p_TPt_T
-    d_T_dot = s.v_PtPc_T - _cross(s.w_TC_T, p_PcC_T)
+    d_T_dot = s.v_PtPc_T - cross(s.w_TC_T, p_PcC_T)
     p_IC_I = s.p_IT_I + s.R_IT @ d_T
-    v_IC_I = s.v_IT_I + s.R_IT @ (d_T_dot + _cross(s.w_IT_T, d_T))
+    v_IC_I = s.v_IT_I + s.R_IT @ (d_T_dot + cross(s.w_IT_T, d_T))
     return R_IC, w_IC_C, p_IC_I, v_IC_I
 
 
@@ -658,41 +626,7 @@ def eigenaxis_error(R_TC):
 
 
 # --------------------------------------------------------------------------------------------
-# Constraints (eqs. 16-19): each function returns g with g <= 0 meaning satisfied.
-
-
-def pyramid_polyhedron(axis, lateral_1, lateral_2, half_angle_rad: float) -> np.ndarray:
-    """Rows A (4, 3) of the 4-face pyramid {v : A v <= 0} about a unit axis.
-
-    Rows cos(alpha) (+-e) - sin(alpha) a for e in (lateral_1, lateral_2): inside means
-    |e.v| <= tan(alpha) a.v for both lateral axes, the form of rpod's gimbal pyramid (eq. 16).
-    The three unit vectors must be orthonormal.
-    """
-    a, e1, e2 = (np.asarray(v, dtype=float) for v in (axis, lateral_1, lateral_2))
-    ca, sa = math.cos(half_angle_rad), math.sin(half_angle_rad)
-    return np.stack([ca * e1 - sa * a, -ca * e1 - sa * a, ca * e2 - sa * a, -ca * e2 - sa * a])
-
-
-def gimbal_constraint_matrix(layout: ThrusterLayout) -> tuple[np.ndarray, np.ndarray]:
-    """(A, b) of eq. 16 for all thrusters: A (4 n, 3 n) block-diagonal, b = 0 (4 n,).
-
-    Block k is rpod's `gimbal_polyhedron` of thruster k (4 planes at its half-angle about its
-    nominal direction, in C), so A @ u <= b is eq. 16 for the input layout of this module.
-    """
-    n = layout.count
-    A = np.zeros((4 * n, 3 * n))
-    b = np.zeros(4 * n)
-    for k, thruster in enumerate(layout.thrusters):
-        A_k, b_k = gimbal_polyhedron(thruster)
-        A[4 * k : 4 * k + 4, 3 * k : 3 * k + 3] = A_k
-        b[4 * k : 4 * k + 4] = b_k
-    return A, b
-
-
-def gimbal_constraints(layout: ThrusterLayout, u) -> np.ndarray:
-    """A_k f_k - b_k (32,) for all thrusters (eq. 16); <= 0 when satisfied, in N."""
-    A, b = gimbal_constraint_matrix(layout)
-    return A @ np.asarray(u) - b
+# Constraints (eqs. 17-19; eq. 16 is rpod.models.gimbal's): each returns g, g <= 0 satisfied.
 
 
 def thrust_magnitude_constraints(u, max_thrust_N: float = MAX_THRUST_N) -> np.ndarray:
@@ -708,7 +642,7 @@ def los_polyhedron(
 
     Axis: the outward radial direction of the rock, p_TPt_T / |p_TPt_T|; lateral axes as rpod's
     thruster frames pick them (unit(a x axis) with a the T axis least aligned with the axis,
-    then axis x that).
+    then axis x that); the rows are `rpod.models.gimbal.pyramid_polyhedron`'s.
     """
     p = np.asarray(p_TPt_T, dtype=float)
     axis = p / np.linalg.norm(p)

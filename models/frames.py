@@ -9,6 +9,12 @@ Does not own: the gravity models (rpod.models.gravity) or the CW linearisation (
 Relative vectors are passed as differences (p_TC_I = p_IC_I - p_IT_I) rather than as two absolute
 positions: at 7,000 km a subtraction of absolute positions keeps only ~1e-9 m of the digits, and
 callers that already hold the difference (the truth integrates it) keep all of them.
+
+Also owns the vector products every model and planner uses (one home, DESIGN.md "Shared laws"):
+`cross` and `skew` on one 3-vector, `cross_rows` and `skew_rows` on stacks of them, and
+`cross_2d` for planar vectors. They are written out with products and sums only: faster than
+np.cross on 3-vectors (~10 us a call), and they take any scalar type (float, complex for
+complex-step derivatives, numpy object arrays of AutoDiffXd, symbolic.Expression or CasADi SX).
 """
 
 from __future__ import annotations
@@ -17,20 +23,70 @@ import numpy as np
 from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RotationMatrix
 
+# --------------------------------------------------------------------------------------------
+# Vector products (any scalar type; see the module docstring).
 
-def _cross(a, b):
-    """a x b on 3-sequences, with plain arithmetic (np.cross costs ~10 us on 3-vectors)."""
-    return np.array(
-        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-    )
+
+def cross(a, b) -> np.ndarray:
+    """a x b of two 3-vectors (3-sequences), of any scalar type.
+
+    ``tolist()`` turns float64 entries into Python floats, whose arithmetic is several times
+    faster than numpy scalars' (np.cross costs ~10 us on 3-vectors); object entries (AutoDiffXd,
+    Expression, CasADi SX) pass through as they are.
+    """
+    a0, a1, a2 = np.asarray(a).tolist()
+    b0, b1, b2 = np.asarray(b).tolist()
+    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
+
+
+def skew(w) -> np.ndarray:
+    """[w]x (3, 3), the cross-product matrix of a 3-vector: skew(w) @ v = w x v.
+
+    Float entries get a literal 0.0 on the diagonal; other scalar types a zero of their own
+    type (0.0 * w0), so that an object array of AutoDiffXd, Expression or CasADi SX comes back.
+    """
+    w0, w1, w2 = np.asarray(w).tolist()
+    zero = 0.0 if isinstance(w0, float) else 0.0 * w0
+    return np.array([[zero, -w2, w1], [w2, zero, -w0], [-w1, w0, zero]])
+
+
+def cross_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise a x b of two arrays (..., 3) (broadcast against each other) -> (..., 3).
+
+    Float, complex (no conjugation: complex-step derivatives pass through) or object arrays.
+    """
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape), dtype=np.result_type(a, b))
+    out[..., 0] = a1 * b2 - a2 * b1
+    out[..., 1] = a2 * b0 - a0 * b2
+    out[..., 2] = a0 * b1 - a1 * b0
+    return out
+
+
+def skew_rows(w: np.ndarray) -> np.ndarray:
+    """[w]x for every row of w (..., 3) -> (..., 3, 3), with w's dtype (zeros on the diagonal)."""
+    S = np.zeros(w.shape + (3,), dtype=w.dtype)
+    S[..., 0, 1], S[..., 0, 2], S[..., 1, 2] = -w[..., 2], w[..., 1], -w[..., 0]
+    S[..., 1, 0], S[..., 2, 0], S[..., 2, 1] = w[..., 2], -w[..., 1], w[..., 0]
+    return S
+
+
+def cross_2d(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """u x v of planar vectors, row-wise: (..., 2) -> (...), the z component u_x v_y - u_y v_x."""
+    return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
+
+
+# --------------------------------------------------------------------------------------------
+# LVLH.
 
 
 def lvlh_rotation(p_IT_I: np.ndarray, v_IT_I: np.ndarray) -> np.ndarray:
     """R_IL, whose columns are the LVLH axes x (radial), y (along-track), z (normal) in I."""
     x_axis = p_IT_I / np.sqrt(p_IT_I @ p_IT_I)
-    h = _cross(p_IT_I, v_IT_I)
+    h = cross(p_IT_I, v_IT_I)
     z_axis = h / np.sqrt(h @ h)
-    return np.column_stack((x_axis, _cross(z_axis, x_axis), z_axis))
+    return np.column_stack((x_axis, cross(z_axis, x_axis), z_axis))
 
 
 def lvlh_angular_velocity(p_IT_I: np.ndarray, v_IT_I: np.ndarray, a_IT_I: np.ndarray) -> np.ndarray:
@@ -41,7 +97,7 @@ def lvlh_angular_velocity(p_IT_I: np.ndarray, v_IT_I: np.ndarray, a_IT_I: np.nda
     orbit plane and vanishes for a central force (it is J2's nodal regression, instantaneously).
     """
     r = np.sqrt(p_IT_I @ p_IT_I)
-    h_vec = _cross(p_IT_I, v_IT_I)
+    h_vec = cross(p_IT_I, v_IT_I)
     h = np.sqrt(h_vec @ h_vec)
     a_normal = np.dot(a_IT_I, h_vec) / h
     return np.array([r * a_normal / h, 0.0, h / (r * r)])
@@ -55,7 +111,7 @@ def inertial_to_lvlh(
     p_LC_L = R_LI p_TC_I;  v_LC_L = R_LI v_TC_I - w_IL_L x p_LC_L  (transport theorem).
     """
     p_LC_L = R_IL.T @ p_TC_I
-    v_LC_L = R_IL.T @ v_TC_I - _cross(w_IL_L, p_LC_L)
+    v_LC_L = R_IL.T @ v_TC_I - cross(w_IL_L, p_LC_L)
     return p_LC_L, v_LC_L
 
 
@@ -64,7 +120,7 @@ def lvlh_to_inertial(
 ) -> tuple[np.ndarray, np.ndarray]:
     """(p_LC_L, v_LC_L) -> relative state (p_TC_I, v_TC_I) in I; the inverse of inertial_to_lvlh."""
     p_TC_I = R_IL @ p_LC_L
-    v_TC_I = R_IL @ (v_LC_L + _cross(w_IL_L, p_LC_L))
+    v_TC_I = R_IL @ (v_LC_L + cross(w_IL_L, p_LC_L))
     return p_TC_I, v_TC_I
 
 

@@ -3,7 +3,7 @@
 Owns: inertia validation, the attitude state derivative (paper 000 eq. (2), with an optional
 body torque), kinetic energy and angular momentum, and the closed-form torque-free motion of an
 axisymmetric body. Does not own: translational dynamics, time integration (see
-``rpod.systems.rigid_body_attitude``) or any Drake System.
+``rpod.systems.truth``), the cross product (``rpod.models.frames.cross``) or any Drake System.
 
 Conventions: ``q_wxyz`` is the unit quaternion of ``R_IB`` (maps vectors expressed in body frame
 B to the inertial frame I, Hamilton product, as ``pydrake.common.eigen_geometry.Quaternion``);
@@ -18,6 +18,8 @@ expressed in B [N m].
 import numpy as np
 from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RotationMatrix
+
+from rpod.models.frames import cross
 
 # Relative tolerance for the symmetry and triangle-inequality checks of an inertia matrix.
 _INERTIA_RTOL = 1e-9
@@ -53,17 +55,6 @@ def validate_inertia(J: np.ndarray) -> None:
         )
 
 
-def _cross(a, b) -> np.ndarray:
-    """Cross product of two 3-vectors that also works on object (AutoDiffXd) arrays.
-
-    ``tolist()`` turns float64 entries into Python floats, whose arithmetic is several times
-    faster than numpy scalars' (this runs in every derivative evaluation).
-    """
-    a0, a1, a2 = np.asarray(a).tolist()
-    b0, b1, b2 = np.asarray(b).tolist()
-    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
-
-
 def angular_acceleration(J, w_B, tau_B=None, J_inv=None) -> np.ndarray:
     """Euler's equations ``J w_dot = tau - w x (J w)`` solved for ``w_dot``.
 
@@ -79,7 +70,7 @@ def angular_acceleration(J, w_B, tau_B=None, J_inv=None) -> np.ndarray:
     if J_inv is None:
         J_inv = np.linalg.inv(np.asarray(J, dtype=float))
     h_B = J @ w_B
-    rhs = _cross(h_B, w_B)  # -w x (J w), paper 000 eq. (2), gyroscopic term
+    rhs = cross(h_B, w_B)  # -w x (J w), paper 000 eq. (2), gyroscopic term
     if tau_B is not None:
         rhs = rhs + tau_B
     return J_inv @ rhs  # paper 000 eq. (2)

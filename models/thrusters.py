@@ -1,4 +1,4 @@
-"""Thruster layouts, their wrench maps, gimbal limits, mass flow and wrench allocation.
+"""Thruster layouts, the fixed-thruster wrench map, mass flow and wrench allocation.
 
 Owns the equations of the chaser's propulsion, as plain numpy functions and dataclasses:
 
@@ -6,25 +6,22 @@ Owns the equations of the chaser's propulsion, as plain numpy functions and data
   chaser body frame C), which way its force on the chaser points (`direction_C`), its limits.
 - Presets: `gimbaled_cuboid_8` (paper 001, Fig. 2 and Sec. IV), `planar_8` (paper 003, Fig. 2)
   and `rcs_cube_12` (a 12-thruster 6-DOF reaction-control cube).
-- Wrench maps (paper 001 eqs. 11-12, paper 003 eqs. 3-4). A body wrench is ordered like Drake's
-  SpatialForce, [tau_C; f_C] (torque about the chaser CoM first, then force), expressed in C.
-- The gimbal pointing polyhedron (paper 001 eq. 16), the magnitude limit (eq. 17), the gimbal
-  angles of eq. 13 and the projection of a commanded force onto the feasible set.
+- The effectiveness matrix of fixed-direction thrusters, `wrench_matrix` (paper 003 eqs. 3-4).
+  A body wrench is ordered like Drake's SpatialForce, [tau_C; f_C] (torque about the chaser
+  CoM first, then force), expressed in C.
 - Propellant mass flow, mdot = sum_k |f_k| / (Isp_k g0).
 - `allocate_duty` / `DutyAllocator`: the box-constrained least-squares allocation of paper 003
   eq. 14 with an exact minimum-fuel tie-break (`allocate_duty_reference`: the scipy version).
 
-It does not own time: the Drake systems that apply these maps every step live in
-`rpod.systems.thruster_bank`, `rpod.systems.pwm` and `rpod.systems.allocator`.
+Does not own: gimbaled thrusters (force vectors to the wrench, eqs. 11-12; the thruster frame
+and gimbal angles, eq. 13; the gimbal pyramid and the clip, eqs. 16-17), which live in
+`rpod.models.gimbal` (the names once defined here still resolve, see `__getattr__` at the end);
+the cross product (`rpod.models.frames.cross_rows`); time: the Drake systems that apply these
+maps every step live in `rpod.systems.thruster_bank`, `rpod.systems.pwm` and
+`rpod.systems.allocator`.
 
 Default specific impulse: 220 s, a hydrazine monopropellant thruster (typical 215-235 s in
 vacuum). None of the papers gives one; it only matters for propellant bookkeeping.
-
-Thruster frame K (paper 001 Sec. II-E): j_K = -direction_C (the force on the chaser is along -j,
-eq. 13; for the paper's layout j_K = p_CK_C/|p_CK_C|). i_K = unit(a x j_K) where a is the C axis
-least aligned with j_K (the first one on ties), and k_K = i_K x j_K. The two gimbals of eq. 13
-rotate about i_K (alpha2) and k_K (alpha3); the 4-plane pyramid of eq. 16 has its faces
-perpendicular to the (i_K, j_K) and (k_K, j_K) planes.
 """
 
 from __future__ import annotations
@@ -35,6 +32,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.optimize
+
+from rpod.models.frames import cross_rows
 
 STANDARD_GRAVITY_M_S2 = 9.80665
 """Standard gravity g0 used in the definition of specific impulse, m/s^2."""
@@ -302,18 +301,6 @@ def rcs_cube_12(
 # Wrench maps.
 
 
-def _cross_rows(p: np.ndarray, f: np.ndarray) -> np.ndarray:
-    """Row-wise p x f of two (n, 3) arrays; written out so AutoDiffXd object arrays work."""
-    return np.stack(
-        [
-            p[:, 1] * f[:, 2] - p[:, 2] * f[:, 1],
-            p[:, 2] * f[:, 0] - p[:, 0] * f[:, 2],
-            p[:, 0] * f[:, 1] - p[:, 1] * f[:, 0],
-        ],
-        axis=1,
-    )
-
-
 def wrench_matrix(layout: ThrusterLayout) -> np.ndarray:
     """Control effectiveness matrix B (6 x n) of fixed-direction thrusters.
 
@@ -324,165 +311,9 @@ def wrench_matrix(layout: ThrusterLayout) -> np.ndarray:
     P = layout.p_CK_C
     F = layout.directions_C * layout.max_thrusts_N[:, None]
     B = np.empty((6, layout.count))
-    B[:3] = _cross_rows(P, F).T  # tau = sum_k p_k x f_k (paper 001 eq. 12, paper 003 eq. 4)
+    B[:3] = cross_rows(P, F).T  # tau = sum_k p_k x f_k (paper 001 eq. 12, paper 003 eq. 4)
     B[3:] = F.T  # f = sum_k f_k (paper 001 eq. 11, paper 003 eq. 3)
     return B
-
-
-def wrench_from_forces(layout: ThrusterLayout, f_K_C: np.ndarray) -> np.ndarray:
-    """Body wrench [tau_C; f_C] (6,) of thruster force vectors (paper 001 eqs. 11-12).
-
-    Args:
-        layout: The layout (its positions are used; limits are not applied here).
-        f_K_C: Force of each thruster on the chaser, in C, rows (n, 3) (or 3n stacked), N.
-            Object arrays of AutoDiffXd are accepted.
-    """
-    F = np.asarray(f_K_C).reshape(layout.count, 3)
-    P = layout.p_CK_C
-    tau_C = _cross_rows(P, F).sum(axis=0)  # tau_c = sum_k r_tk x R_k/c f_tk (eq. 12)
-    f_C = F.sum(axis=0)  # f_c = sum_k R_k/c f_tk (eq. 11)
-    return np.concatenate([tau_C, f_C])
-
-
-# --------------------------------------------------------------------------------------------
-# Gimbal geometry (paper 001 eqs. 13, 16, 17).
-
-
-def thruster_frame_C(thruster: Thruster) -> np.ndarray:
-    """Rotation R_CK (3 x 3) whose columns are i_K, j_K, k_K expressed in C.
-
-    j_K = -direction_C (thrust along -j, paper 001 eq. 13); i_K = unit(a x j_K) with a the C axis
-    least aligned with j_K; k_K = i_K x j_K.
-    """
-    j = -np.asarray(thruster.direction_C, dtype=float)
-    j = j / np.linalg.norm(j)
-    a = np.zeros(3)
-    a[int(np.argmin(np.abs(j)))] = 1.0
-    i = np.cross(a, j)
-    i /= np.linalg.norm(i)
-    k = np.cross(i, j)
-    return np.column_stack([i, j, k])
-
-
-def force_from_gimbal_angles(
-    thruster: Thruster, alpha2_rad: float, alpha3_rad: float, thrust_N: float
-) -> np.ndarray:
-    """Force on the chaser, in C, for gimbal angles and magnitude (paper 001 eq. 13).
-
-    f_K = -R1(alpha2) R3(alpha3) j |f| in K, with R1, R3 the principal rotations about i_K and
-    k_K; returned as R_CK f_K.
-    """
-    c2, s2 = math.cos(alpha2_rad), math.sin(alpha2_rad)
-    c3, s3 = math.cos(alpha3_rad), math.sin(alpha3_rad)
-    R1 = np.array([[1.0, 0.0, 0.0], [0.0, c2, -s2], [0.0, s2, c2]])
-    R3 = np.array([[c3, -s3, 0.0], [s3, c3, 0.0], [0.0, 0.0, 1.0]])
-    f_K = -R1 @ R3 @ np.array([0.0, 1.0, 0.0]) * thrust_N  # eq. 13
-    return thruster_frame_C(thruster) @ f_K
-
-
-def gimbal_polyhedron(thruster: Thruster) -> tuple[np.ndarray, np.ndarray]:
-    """The 4-plane gimbal pyramid A_k f <= b_k of a gimbaled thruster (paper 001 eq. 16).
-
-    With n = direction_C, half-angle alpha and lateral axes e in {i_K, k_K}, the rows are the
-    unit normals cos(alpha) (+-e) - sin(alpha) n, b_k = 0: the pyramid with apex at the origin
-    where |f.e| <= tan(alpha) f.n for both lateral axes. Every force in it is reachable with
-    gimbal angles |alpha2|, |alpha3| <= alpha of eq. 13 (the paper's "slightly conservative"
-    inner approximation). The magnitude limit (eq. 17) is separate: ||f|| <= max_thrust_N.
-
-    Raises:
-        ValueError: For a fixed thruster (angle 0): its force set is the segment
-            [0, f_max] direction_C, not a pyramid.
-    """
-    alpha = thruster.gimbal_half_angle_rad
-    if alpha <= 0.0:
-        raise ValueError("gimbal_polyhedron needs gimbal_half_angle_rad > 0 (fixed thruster)")
-    R_CK = thruster_frame_C(thruster)
-    n = np.asarray(thruster.direction_C, dtype=float)
-    e_i, e_k = R_CK[:, 0], R_CK[:, 2]
-    ca, sa = math.cos(alpha), math.sin(alpha)
-    A = np.stack([ca * e_i - sa * n, -ca * e_i - sa * n, ca * e_k - sa * n, -ca * e_k - sa * n])
-    return A, np.zeros(4)
-
-
-def clip_gimbaled_forces(
-    layout: ThrusterLayout, f_K_C: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """Maps commanded thruster forces into each thruster's feasible set (eqs. 16-17).
-
-    Rule, per thruster, with axial a = f.n and lateral l_i = f.i_K, l_k = f.k_K:
-    1. a <- max(a, 0); l_i, l_k <- clamp to [-tan(alpha) a, tan(alpha) a] (into the pyramid);
-    2. if ||f|| > f_max, f <- f f_max/||f|| (scaling keeps it in the pyramid, a cone).
-    A row that already satisfies every limit is returned unchanged, bit for bit. A row with a
-    non-finite entry becomes zero force. A fixed thruster (alpha = 0) maps to a n with
-    a in [0, f_max]. The result is feasible but is not the Euclidean projection (cheaper, and
-    it keeps the commanded axial thrust when only the tilt is too large).
-
-    Args:
-        layout: The thrusters (any layout; fixed thrusters get the alpha = 0 rule).
-        f_K_C: Commanded forces in C, rows (n, 3) or 3n stacked, N.
-
-    Returns:
-        (f_clipped (n, 3), violation (n,)): violation_k >= 0 is the largest amount, in N, by
-        which thruster k's command broke a limit (inf for non-finite); 0 when unchanged.
-    """
-    return GimbalLimits(layout).clip(np.asarray(f_K_C, dtype=float).reshape(layout.count, 3))
-
-
-def clip_gimbaled_force(thruster: Thruster, f: np.ndarray) -> tuple[np.ndarray, bool]:
-    """Maps one force vector into its thruster's feasible set (pyramid of eq. 16 ∩ ball eq. 17).
-
-    See `clip_gimbaled_forces` for the rule; it is the identity on feasible inputs.
-
-    Returns:
-        (f_clipped (3,), was_clipped).
-    """
-    layout = ThrusterLayout(thrusters=[thruster], gimbaled=True)
-    f_c, violation = clip_gimbaled_forces(layout, np.asarray(f, dtype=float).reshape(1, 3))
-    return f_c[0], bool(violation[0] > 0.0)
-
-
-class GimbalLimits:
-    """A layout's gimbal limits as arrays, built once, for the vectorised clip of eqs. 16-17.
-
-    Use it in code called every step (e.g. a Drake system) instead of `clip_gimbaled_forces`,
-    which rebuilds these arrays on each call.
-    """
-
-    def __init__(self, layout: ThrusterLayout):
-        """Precomputes axes, tan(alpha) and f_max of every thruster of `layout`."""
-        frames = [thruster_frame_C(t) for t in layout.thrusters]
-        # Per thruster, rows n (nominal force direction), i_K, k_K: F_k -> (a, l_i, l_k).
-        self.axes = np.array(
-            [np.stack([t.direction_C, R[:, 0], R[:, 2]]) for t, R in zip(layout.thrusters, frames)]
-        ).reshape(-1, 3, 3)
-        self.tan_alpha = np.tan(layout.gimbal_half_angles_rad)
-        self.f_max = layout.max_thrusts_N
-
-    def clip(self, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Same as `clip_gimbaled_forces` for forces F (n, 3); returns (F_clipped, violation)."""
-        finite = None
-        if not np.all(np.isfinite(F)):
-            finite = np.all(np.isfinite(F), axis=1)
-            F = np.where(finite[:, None], F, 0.0)
-        c = np.einsum("kij,kj->ki", self.axes, F)  # (a, l_i, l_k) per thruster
-        a = c[:, 0]
-        lateral = np.abs(c[:, 1:]).max(axis=1) - self.tan_alpha * a  # pyramid, eq. 16
-        norm = np.sqrt(np.einsum("ij,ij->i", F, F))
-        violation = np.maximum(np.maximum(-a, lateral), norm - self.f_max)  # eq. 17
-        np.maximum(violation, 0.0, out=violation)  # largest violation, N
-        if finite is not None:
-            violation[~finite] = np.inf
-        bad = violation > 0.0
-        if not np.any(bad):
-            return F, violation
-        a_c = np.maximum(a, 0.0)
-        ta_c = (self.tan_alpha * a_c)[:, None]
-        c_c = np.concatenate([a_c[:, None], np.clip(c[:, 1:], -ta_c, ta_c)], axis=1)
-        G = np.einsum("kij,ki->kj", self.axes, c_c)
-        g_norm = np.sqrt(np.einsum("ij,ij->i", G, G))
-        scale = np.where(g_norm > self.f_max, self.f_max / np.maximum(g_norm, 1e-300), 1.0)
-        G *= scale[:, None]
-        return np.where(bad[:, None], G, F), violation
 
 
 # --------------------------------------------------------------------------------------------
@@ -942,3 +773,32 @@ def allocate_duty_reference(
     if r2 <= r1 + 1e-12 * scale and c @ u2 < c @ u1:
         return u2
     return u1
+
+
+# --------------------------------------------------------------------------------------------
+# Names that moved to rpod.models.gimbal.
+
+_MOVED_TO_GIMBAL = frozenset(
+    {
+        "GimbalLimits",
+        "clip_gimbaled_force",
+        "clip_gimbaled_forces",
+        "force_from_gimbal_angles",
+        "gimbal_polyhedron",
+        "thruster_frame_C",
+        "wrench_from_forces",
+    }
+)
+
+
+def __getattr__(name: str):
+    """The gimbal names once defined here, looked up in `rpod.models.gimbal` (their one home)
+    for callers not yet importing them from there; import them from rpod.models.gimbal.
+
+    Lazy (PEP 562) because rpod.models.gimbal imports this module's layouts.
+    """
+    if name in _MOVED_TO_GIMBAL:
+        from rpod.models import gimbal
+
+        return getattr(gimbal, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

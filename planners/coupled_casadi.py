@@ -33,6 +33,7 @@ import casadi as ca
 import numpy as np
 
 from rpod.models import coupled_relative as cr
+from rpod.models.gimbal import gimbal_constraint_matrix
 from rpod.planners import coupled_shooting as cs
 
 # CasADi 3.8 warns once when a numpy function meets a CasADi value; -1 keeps the behaviour the
@@ -261,7 +262,7 @@ class CasadiTranscription:
         T = ca.reshape(P, _N_T, N + 1)
 
         # Constraints: defects, then eq. 16 (b = 0), eq. 17 squared, eq. 18 softened.
-        A_g, _ = cr.gimbal_constraint_matrix(params.layout)
+        A_g, _ = gimbal_constraint_matrix(params.layout)
         defects, stage = [], 0.0
         for k in range(N):
             x_end, c_w = Phi_w(X[:, k], ca.mtimes(M, U[:, k]), T[:, k])

@@ -47,7 +47,7 @@ import dataclasses
 import numpy as np
 
 from rpod.models.cw import cw_state_transition, cw_zoh_input
-from rpod.models.frames import lvlh_rotation, rotations_from_wxyz
+from rpod.models.frames import lvlh_rotation, rotations_from_wxyz, skew
 from rpod.models.gravity import (
     GRAVITY_MODELS,
     gravity_acceleration_xyz,
@@ -75,17 +75,12 @@ class TargetState:
     w_IT_T: np.ndarray
 
 
-def _skew(w) -> np.ndarray:
-    """[w]x, with [w]x p = w x p."""
-    return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
-
-
 def _out_of_frame(R_AF, w_AF_F) -> np.ndarray:
     """(6, 6): a relative state in and seen from a frame F that turns at w_AF_F in frame A ->
     the same in A: p_A = R_AF p_F, v_A = R_AF (v_F + w x p_F) (eqs. 7-8 inverted)."""
     M = np.zeros((6, 6))
     M[:3, :3] = M[3:, 3:] = R_AF
-    M[3:, :3] = R_AF @ _skew(w_AF_F)
+    M[3:, :3] = R_AF @ skew(w_AF_F)
     return M
 
 
@@ -94,7 +89,7 @@ def _into_frame(R_AF, w_AF_F) -> np.ndarray:
     (eqs. 7-8)."""
     M = np.zeros((6, 6))
     M[:3, :3] = M[3:, 3:] = R_AF.T
-    M[3:, :3] = -_skew(w_AF_F) @ R_AF.T
+    M[3:, :3] = -skew(w_AF_F) @ R_AF.T
     return M
 
 

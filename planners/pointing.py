@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rpod.models.frames import rotations_from_wxyz
+from rpod.models.frames import rotations_from_wxyz, skew_rows
 
 # Below this norm of the unnormalised quaternion (1 + a.b, a x b) (it is sqrt(2 (1 + a.b)),
 # ~ the angle by which a misses -b), a and b are treated as antiparallel: the least rotation
@@ -39,19 +39,6 @@ from rpod.models.frames import rotations_from_wxyz
 _ANTIPARALLEL_TOLERANCE = 1e-9
 # Positions shorter than this (m) have no line of sight; the attitude is held.
 _MIN_RANGE_M = 1e-9
-
-
-def _skew(v: np.ndarray) -> np.ndarray:
-    """[v]x for a batch of vectors (..., 3) -> (..., 3, 3)."""
-    zero = np.zeros_like(v[..., 0])
-    return np.stack(
-        [
-            np.stack([zero, -v[..., 2], v[..., 1]], axis=-1),
-            np.stack([v[..., 2], zero, -v[..., 0]], axis=-1),
-            np.stack([-v[..., 1], v[..., 0], zero], axis=-1),
-        ],
-        axis=-2,
-    )
 
 
 def _normal_to(a: np.ndarray) -> np.ndarray:
@@ -155,7 +142,7 @@ def pointing_rotation_jacobian(p_LC_L: np.ndarray, capture_axis_C, R_LC0=None) -
     v = np.cross(a, b)
     s = np.where(s < _ANTIPARALLEL_TOLERANCE, np.nan, s)
     M = (
-        _skew(a)
+        skew_rows(a)
         + (a[:, :, None] * v[:, None, :] - v[:, :, None] * a[:, None, :]) / s[:, None, None]
     )
     db_dp = -(np.eye(3) - b[:, :, None] * b[:, None, :]) / r[:, None, None]  # b = -p / |p|

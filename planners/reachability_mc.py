@@ -66,6 +66,7 @@ import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.spatial import ConvexHull, Delaunay, QhullError, cKDTree
 
+from rpod.models.frames import cross_2d
 from rpod.models.los_corridor import (
     VIOLATION_TOLERANCE_M,
     LosCorridor,
@@ -89,16 +90,12 @@ _CHUNK = 8192  # queries per pass of the cavity search
 def _circumcentres(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
     """(n, 2) circumcentres of the triangles (a, b, c), each (n, 2); inf/nan when degenerate."""
     b, c = b - a, c - a
-    d = 2.0 * (b[:, 0] * c[:, 1] - b[:, 1] * c[:, 0])
+    d = 2.0 * cross_2d(b, c)
     bb, cc = np.sum(b * b, axis=1), np.sum(c * c, axis=1)
     with np.errstate(divide="ignore", invalid="ignore"):
         x = (c[:, 1] * bb - b[:, 1] * cc) / d
         y = (b[:, 0] * cc - c[:, 0] * bb) / d
     return a + np.column_stack([x, y])
-
-
-def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    return u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
 
 
 def _ccw_triangulation(sites: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -107,7 +104,7 @@ def _ccw_triangulation(sites: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     tri = Delaunay(sites)
     simplices, neighbours = tri.simplices.copy(), tri.neighbors.copy()
     p = sites[simplices]
-    clockwise = _cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]) < 0.0
+    clockwise = cross_2d(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]) < 0.0
     simplices[clockwise] = simplices[clockwise][:, [0, 2, 1]]
     neighbours[clockwise] = neighbours[clockwise][:, [0, 2, 1]]
     return simplices, neighbours
@@ -156,10 +153,10 @@ def _sibson_areas(
         # The edge a -> b seen from a: its Voronoi edge runs from c_R to c_L = c_t; from b
         # (the edge b -> a, left and right swapped): from c_t to c_R.
         twice_area += np.bincount(
-            qi * k + a, weights=half * _cross(x_r - m_a, c_t - m_a), minlength=m * k
+            qi * k + a, weights=half * cross_2d(x_r - m_a, c_t - m_a), minlength=m * k
         )
         twice_area += np.bincount(
-            qi * k + b, weights=half * _cross(c_t - m_b, x_r - m_b), minlength=m * k
+            qi * k + b, weights=half * cross_2d(c_t - m_b, x_r - m_b), minlength=m * k
         )
     return 0.5 * twice_area.reshape(m, k)
 

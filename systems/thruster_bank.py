@@ -1,14 +1,16 @@
 """ThrusterBank: thruster commands in, body wrench and propellant mass flow out.
 
 Owns the clipping of commands to the thruster limits and the map to the chaser body wrench,
-every integrator stage. The equations (wrench map, gimbal pyramid, magnitude limit, mass flow)
-live in `rpod.models.thrusters`; this file only puts them in a Drake system. It does not
-integrate propellant mass (feed `propellant_mass_flow` to whatever owns the chaser's mass) and
-does not model thrust build-up or decay: the wrench follows the command instantly.
+every integrator stage. The equations live in `rpod.models`: the fixed-thruster wrench map and
+mass flow in `rpod.models.thrusters`, the gimbaled thrusters' force-to-wrench matrix, gimbal
+pyramid and magnitude limit in `rpod.models.gimbal`; this file only puts them in a Drake system.
+It does not integrate propellant mass (feed `propellant_mass_flow` to whatever owns the chaser's
+mass) and does not model thrust build-up or decay: the wrench follows the command instantly.
 
 Where it is used. For fixed layouts, rpod.diagrams builds `rpod.systems.truth.Truth`, which
-applies the same clip and wrench map inside the truth (for speed); this system is the reference
-it is checked against (`rpod.systems.split_truth.SplitTruth`) and the one for gimbaled layouts.
+applies the same clip and wrench map inside the truth (for speed); this system is part of the
+test-only reference it is checked against (`tests.reference.split_truth.SplitTruth`) and the
+bank rpod.diagrams builds for gimbaled layouts.
 """
 
 from __future__ import annotations
@@ -17,9 +19,9 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, Context, LeafSystem, ValueProducer
 
+from rpod.models.gimbal import GimbalLimits, force_to_wrench_matrix
 from rpod.models.thrusters import (
     STANDARD_GRAVITY_M_S2,
-    GimbalLimits,
     ThrusterLayout,
     validate_layout,
     wrench_matrix,
@@ -43,7 +45,7 @@ class ThrusterBank(LeafSystem):
 
     Clipping always happens (no out-of-limit command reaches the wrench): levels are clamped to
     [0, 1] (NaN -> 0); gimbaled forces are mapped into the feasible set by the rule of
-    `rpod.models.thrusters.clip_gimbaled_forces` (pyramid eq. 16, then magnitude eq. 17). The
+    `rpod.models.gimbal.clip_gimbaled_forces` (pyramid eq. 16, then magnitude eq. 17). The
     tolerance only keeps solver round-off from being reported as clipping. Fixed-layout
     commands already in [0, 1] (every PWM on/off command) are copied as they are, skipping the
     clip arithmetic.
@@ -73,10 +75,7 @@ class ThrusterBank(LeafSystem):
         self._inv_isp_g0 = 1.0 / (layout.isps_s * STANDARD_GRAVITY_M_S2)
         # Gimbaled: wrench = M @ [f_1; ...; f_n], M = [skew(p_1) ... skew(p_n); I ... I]
         # (paper 001 eqs. 11-12 as one precomputed matrix).
-        self._M = np.zeros((6, 3 * self._n))
-        for k, (x, y, z) in enumerate(layout.p_CK_C):
-            self._M[:3, 3 * k : 3 * k + 3] = [[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]]
-            self._M[3:, 3 * k : 3 * k + 3] = np.eye(3)
+        self._M = force_to_wrench_matrix(layout) if self._gimbaled else None
         self._geometry = GimbalLimits(layout) if self._gimbaled else None
         self._force_report_tolerance_N = self._report_tolerance * layout.max_thrusts_N
 

@@ -22,7 +22,7 @@ from rpod.diagrams.controllers.coupled_nmpc import CoupledNmpc, coupled_params
 from rpod.diagrams.scenario import make_thruster_layout
 from rpod.diagrams.simulate import simulate
 from rpod.models import coupled_relative as cr
-from rpod.models.thrusters import gimbal_polyhedron, wrench_from_forces
+from rpod.models.gimbal import gimbal_polyhedron, wrench_from_forces
 from rpod.planners.coupled_nmpc import NmpcStatus
 from rpod.scenarios import cli
 from rpod.scenarios.loader import (

@@ -18,13 +18,14 @@ from pydrake.math import RollPitchYaw, RotationMatrix
 from scipy.integrate import solve_ivp
 
 from rpod.models import coupled_relative as cr
+from rpod.models.frames import skew
+from rpod.models.gimbal import wrench_from_forces
 from rpod.models.gravity import (
     MU_EARTH_M3_S2,
     circular_orbit_state,
     two_body_acceleration,
 )
 from rpod.models.rigid_body import angular_acceleration, quaternion_rate
-from rpod.models.thrusters import gimbal_polyhedron, thruster_frame_C, wrench_from_forces
 
 # A non-isotropic target so that its tumble (and the relative rate) is not a steady spin.
 J_TARGET = np.diag([2.0e6, 3.1e6, 3.9e6])
@@ -311,11 +312,11 @@ def test_thrust_enters_the_dynamics_as_force_and_torque():
     s = cr.unpack_state(x)
     B_ad = ExtractGradient(cr.dynamics(x, InitializeAutoDiff(u)[:, 0], params))
     P = params.layout.p_CK_C
-    d_tau_du = np.hstack([cr.skew(p) for p in P])  # eq. 12 column blocks
+    d_tau_du = np.hstack([skew(p) for p in P])  # eq. 12 column blocks
     d_f_du = np.hstack([np.eye(3)] * 8)  # eq. 11
     d_wdot_du = s.R_TC @ params.J_c_inv @ d_tau_du
     lever_T = s.R_TC @ params.p_CPc_C
-    d_pddot_du = s.R_TC @ d_f_du / params.chaser_mass_kg - cr.skew(lever_T) @ d_wdot_du
+    d_pddot_du = s.R_TC @ d_f_du / params.chaser_mass_kg - skew(lever_T) @ d_wdot_du
     np.testing.assert_allclose(B_ad[cr.W_TC_T_SLICE], d_wdot_du, rtol=1e-13, atol=1e-18)
     np.testing.assert_allclose(B_ad[cr.V_PTPC_T_SLICE], d_pddot_du, rtol=1e-12, atol=1e-18)
     others = np.delete(B_ad, np.r_[9:12, 15:18], axis=0)
@@ -323,35 +324,7 @@ def test_thrust_enters_the_dynamics_as_force_and_torque():
 
 
 # ----------------------------------------------------------------------------- (d) constraints
-
-
-def test_gimbal_polyhedron_holds_the_nominal_thrust_and_cuts_at_its_half_angle():
-    params = cr.CoupledRelativeParams()
-    layout = params.layout
-    eps = 1e-6
-    nominal = np.concatenate([10.0 * t.direction_C for t in layout.thrusters])
-    assert np.all(cr.gimbal_constraints(layout, nominal) < -1.0)  # well inside
-    for k, thruster in enumerate(layout.thrusters):
-        R_CK = thruster_frame_C(thruster)
-        n = thruster.direction_C
-        laterals = (R_CK[:, 0], -R_CK[:, 0], R_CK[:, 2], -R_CK[:, 2])  # plane order of eq. 16
-        for plane, e in enumerate(laterals):
-            for angle, inside in ((math.pi / 4 - eps, True), (math.pi / 4 + eps, False)):
-                u = nominal.copy()
-                u[3 * k : 3 * k + 3] = 10.0 * (math.cos(angle) * n + math.sin(angle) * e)
-                g = cr.gimbal_constraints(layout, u)
-                assert np.all(g <= 0.0) == inside
-                if not inside:
-                    violated = np.flatnonzero(g > 0.0)
-                    np.testing.assert_array_equal(violated, [4 * k + plane])
-                    assert g[4 * k + plane] == pytest.approx(10.0 * math.sin(eps), rel=1e-6)
-        # The block of this thruster is rpod's pyramid and the generic one of this module.
-        A, _ = cr.gimbal_constraint_matrix(layout)
-        A_k, _ = gimbal_polyhedron(thruster)
-        np.testing.assert_array_equal(A[4 * k : 4 * k + 4, 3 * k : 3 * k + 3], A_k)
-        np.testing.assert_allclose(
-            cr.pyramid_polyhedron(n, R_CK[:, 0], R_CK[:, 2], math.pi / 4), A_k, atol=1e-15
-        )
+# (eq. 16, the gimbal pyramid, is rpod.models.gimbal's: tests/models/test_gimbal.py)
 
 
 def test_thrust_magnitude_limit():

@@ -3,16 +3,21 @@
 Independent truths used here: the defining geometry of LVLH (x along p, z along p x v); the
 derivative of R_IL along an orbit integrated with scipy, differentiated numerically
 (skew(w_IL_I) = dR_IL/dt R_IL^T); the closed-form relative position of a chaser sharing the
-target's circular orbit; the quaternion -> rotation-matrix formula written out by hand.
+target's circular orbit; the quaternion -> rotation-matrix formula written out by hand; numpy's
+cross product and AutoDiffXd's derivatives for the vector products.
 """
 
 import math
 
 import numpy as np
 import pytest
+from pydrake.autodiffutils import AutoDiffXd, ExtractGradient, InitializeAutoDiff
 from scipy.integrate import solve_ivp
 
 from rpod.models.frames import (
+    cross,
+    cross_2d,
+    cross_rows,
     inertial_to_lvlh,
     lvlh_angular_velocity,
     lvlh_rotation,
@@ -21,6 +26,8 @@ from rpod.models.frames import (
     rotate_by_wxyz,
     rotation_from_rpy_deg,
     rotation_from_wxyz,
+    skew,
+    skew_rows,
 )
 from rpod.models.gravity import (
     MU_EARTH_M3_S2,
@@ -262,3 +269,49 @@ def test_rotations_from_wxyz_matches_drake_rotation_matrix():
     np.testing.assert_allclose(rotations_from_wxyz(q), expected, atol=1e-14)
     stacked = rotations_from_wxyz(q[:10].reshape(2, 5, 4))
     np.testing.assert_allclose(stacked.reshape(10, 3, 3), expected[:10], atol=1e-14)
+
+
+# ---- Vector products. ----
+
+
+def test_cross_and_skew_agree_with_numpys_cross_and_are_antisymmetric():
+    rng = np.random.default_rng(11)
+    for _ in range(100):
+        a, b = rng.normal(size=3) * 10.0, rng.normal(size=3)
+        # The same three differences of products as numpy's: equal to round-off (1 ulp of |a||b|).
+        np.testing.assert_allclose(cross(a, b), np.cross(a, b), rtol=0, atol=1e-14 * 10.0 * 4.0)
+        np.testing.assert_allclose(skew(a) @ b, np.cross(a, b), rtol=0, atol=1e-14 * 10.0 * 4.0)
+        np.testing.assert_array_equal(skew(a), -skew(a).T)
+    assert cross((1.0, 0.0, 0.0), [0.0, 1.0, 0.0]).tolist() == [0.0, 0.0, 1.0]  # any 3-sequence
+
+
+def test_cross_and_skew_keep_autodiff_scalars_with_exact_derivatives():
+    rng = np.random.default_rng(12)
+    a, b = rng.normal(size=3), rng.normal(size=3)
+    a_ad = InitializeAutoDiff(a)[:, 0]  # d/da
+    c = cross(a_ad, b)
+    assert isinstance(c[0], AutoDiffXd)
+    np.testing.assert_allclose(ExtractGradient(c), -skew(b), rtol=0, atol=1e-15)  # d(a x b)/da
+    S = skew(a_ad)
+    assert S.dtype == object and isinstance(S[0, 0], AutoDiffXd)
+    np.testing.assert_allclose(ExtractGradient(S @ b), -skew(b), rtol=0, atol=1e-15)
+
+
+def test_row_variants_equal_the_single_vector_ones_bit_for_bit():
+    rng = np.random.default_rng(13)
+    A, B = rng.normal(size=(20, 3)), rng.normal(size=(20, 3))
+    rows, S = cross_rows(A, B), skew_rows(A)
+    for k in range(20):
+        np.testing.assert_array_equal(rows[k], cross(A[k], B[k]))
+        np.testing.assert_array_equal(S[k], skew(A[k]))
+    np.testing.assert_array_equal(cross_rows(A, B[0]), np.array([cross(a, B[0]) for a in A]))
+    assert skew_rows(A.reshape(4, 5, 3)).shape == (4, 5, 3, 3)
+    # Complex entries are not conjugated (complex-step derivatives pass through).
+    Z = A + 1j * B
+    np.testing.assert_array_equal(cross_rows(Z, A).imag, cross_rows(B, A))
+    # The planar product is the z component of the 3-D one.
+    u, v = rng.normal(size=(20, 2)), rng.normal(size=(20, 2))
+    flat = np.zeros((20, 1))
+    np.testing.assert_array_equal(
+        cross_2d(u, v), cross_rows(np.hstack([u, flat]), np.hstack([v, flat]))[:, 2]
+    )

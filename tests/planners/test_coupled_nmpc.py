@@ -15,7 +15,7 @@ from pydrake.autodiffutils import ExtractGradient, ExtractValue, InitializeAutoD
 from pydrake.math import RollPitchYaw, RotationMatrix
 
 from rpod.models import coupled_relative as cr
-from rpod.models.thrusters import thruster_frame_C
+from rpod.models.gimbal import thruster_frame_C
 from rpod.planners import coupled_nmpc as cn
 
 

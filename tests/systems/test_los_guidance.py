@@ -9,7 +9,7 @@ from scipy.linalg import expm
 from scipy.spatial.transform import Rotation
 
 from rpod.models.cw import cw_acceleration
-from rpod.models.frames import quaternion_wxyz
+from rpod.models.frames import quaternion_wxyz, skew
 from rpod.models.orbit import OrbitConfig, initial_orbit_state, lvlh_of
 from rpod.planners.los_corridor_mpc import LosMpcSettings, MpcStatus
 from rpod.systems.los_guidance import (
@@ -25,10 +25,6 @@ from rpod.systems.sensed import sensed_vector
 
 OMEGA = np.radians(2.0)
 INERTIA = np.diag([1000.0, 1000.0, 1200.0])
-
-
-def _skew(w):
-    return np.array([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])
 
 
 def _sensed(p_T, v_T, yaw_deg=0.0):
@@ -65,7 +61,7 @@ def test_the_body_frame_command_gives_the_asked_acceleration_seen_in_T():
 
     def p_T(t):
         p_L = view.p_L + view.v_L * t + 0.5 * a_L * t * t
-        R_LT = view.R_LT @ expm(_skew(view.w_LT_T) * t)
+        R_LT = view.R_LT @ expm(skew(view.w_LT_T) * t)
         return R_LT.T @ p_L
 
     second = (p_T(h) - 2.0 * p_T(0.0) + p_T(-h)) / h**2

@@ -9,13 +9,12 @@ import pytest
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Integrator, ZeroOrderHold
 
+from rpod.models.gimbal import clip_gimbaled_forces, wrench_from_forces
 from rpod.models.thrusters import (
     STANDARD_GRAVITY_M_S2,
-    clip_gimbaled_forces,
     gimbaled_cuboid_8,
     planar_8,
     rcs_cube_12,
-    wrench_from_forces,
     wrench_matrix,
 )
 from rpod.systems.thruster_bank import ThrusterBank
