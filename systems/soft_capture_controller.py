@@ -640,8 +640,5 @@ class SoftCaptureController(LeafSystem):
         a_ref = R_LT @ np.cross(w_dot_LT_T, self._reach_T) + np.cross(
             w_LT_L, np.cross(w_LT_L, p_ref)
         )
-        a_cw = np.array(  # unforced CW acceleration (paper 004 eq. 4), cancelled
-            [3 * n * n * p_ref[0] + 2 * n * v_ref[1], -2 * n * v_ref[0], -n * n * p_ref[2]]
-        )
-        a_ff = a_ref - a_cw
+        a_ff = a_ref - cw_acceleration(n, p_ref, v_ref)  # the unforced CW part, cancelled
         return p_ref, v_ref, self._mass * a_ff, a_ff, MODE_CAPTURE_HOLD
