@@ -25,7 +25,7 @@ import time
 import numpy as np
 from machine import machine_line, write_results  # benchmarks/machine.py, beside this script
 
-from rpod.diagrams.plots_reachability import write_reachability_figures
+from rpod.diagrams.controllers.los_corridor.reachability_figures import write_reachability_figures
 from rpod.models.los_corridor import LosCorridor, sync_range_m
 from rpod.planners import reachability as reach
 

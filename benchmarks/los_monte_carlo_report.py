@@ -20,7 +20,7 @@ import time
 
 from machine import machine_line  # benchmarks/machine.py, beside this script
 
-from rpod.diagrams.plots_reachability_mc import write_mc_figures
+from rpod.diagrams.controllers.los_corridor.monte_carlo_figures import write_mc_figures
 from rpod.planners import reachability_mc as mc
 from rpod.scenarios.store import ResultStore
 

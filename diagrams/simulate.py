@@ -6,6 +6,11 @@ log (the simulation's end, whatever the log period) and the collection of the lo
 into the named arrays of log.npz.
 Does not own: the wiring (builder.py), the run-level metrics (metrics.py), what a controller
 adds (its plug-in's `results`), or files (rpod.scenarios.run).
+
+A plug-in's `results` reads the log and never changes it: its `ControllerResults.log` entries
+are added to the log (replacing a key of the same name, e.g. a logged (N, 1) code as int64),
+and an entry whose value is None removes that key (a raw status vector the plug-in logged and
+split into named arrays), so log.npz holds what the plug-in says it holds.
 """
 
 import dataclasses
@@ -236,7 +241,11 @@ def simulate(scenario: Scenario, meshcat=None, progress=None) -> SimulationResul
         results = controller_seam.plugin_for(scenario.controller).results(
             scenario, handles.wiring, context, log
         )
-        log.update(results.log)
+        for key, value in results.log.items():  # None: a raw signal the plug-in has split
+            if value is None:
+                log.pop(key, None)
+            else:
+                log[key] = value
         summary.update(results.summary)
         outcome = results.outcome
     summary["warnings"] = warnings

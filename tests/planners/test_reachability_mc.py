@@ -312,11 +312,11 @@ def test_report_order_and_a_reduced_grid():
 
 
 def test_figures_are_written(tmp_path, grid_terms):
-    # Fig. 2 and Fig. 3 (rpod.diagrams.plots_reachability_mc) from a two-combination campaign:
+    # Fig. 2 and Fig. 3 (los_corridor.monte_carlo_figures) from a two-combination campaign:
     # both PNGs readable and not blank; no overlay without 2 deg/s, 0.10 m/s^2.
     import matplotlib.image
 
-    from rpod.diagrams.plots_reachability_mc import write_mc_figures
+    from rpod.diagrams.controllers.los_corridor.monte_carlo_figures import write_mc_figures
 
     grid, terms = grid_terms
     rows = _campaign(2.0, 0.10, _near_nominal(grid, terms, 2.0, 0.10, 30.0), "a") + _campaign(

@@ -1,4 +1,5 @@
-"""Tests of rpod.diagrams.plots_los: paper 004's LOS-corridor figures and `violation_summary`.
+"""Tests of rpod.diagrams.controllers.los_corridor's figures and its metrics'
+`violation_summary`: paper 004's LOS-corridor figures.
 
 Truths: PNGs are read back with matplotlib.image.imread and must carry ink (as in test_plots);
 the figures of a run without los_* keys are byte-for-byte those of the same run with them (Agg
@@ -15,11 +16,11 @@ import matplotlib.image
 import numpy as np
 import pytest
 
-from rpod.diagrams import plots_los
-from rpod.diagrams.controllers.los_corridor import LOG_SHAPES
+from rpod.diagrams.controllers.los_corridor import LOG_SHAPES, violation_summary
+from rpod.diagrams.controllers.los_corridor import figures as plots_los
+from rpod.diagrams.controllers.los_corridor.figures import FIGURE_NAMES as LOS_FIGURE_NAMES
+from rpod.diagrams.controllers.los_corridor.figures import _floor_y, section_slopes
 from rpod.diagrams.plots import FIGURE_NAMES, RunLog, code_runs, write_plots
-from rpod.diagrams.plots_los import FIGURE_NAMES as LOS_FIGURE_NAMES
-from rpod.diagrams.plots_los import _floor_y, section_slopes, violation_summary
 from rpod.diagrams.target_frame import _rotate
 from rpod.models.los_corridor import LosCorridor
 

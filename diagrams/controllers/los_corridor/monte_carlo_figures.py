@@ -8,7 +8,7 @@ classification or the interpolation (rpod.planners.reachability_mc), the certifi
 matplotlib through `Figure` and the Agg canvas, never pyplot (no global state).
 
 Colours: starts green (feasible) / red (infeasible), as the paper's Fig. 2; X_MC pale yellow,
-nominal green, stochastic blue, robust purple (rpod.diagrams.plots_reachability's); grid
+nominal green, stochastic blue, robust purple (reachability_figures.py's); grid
 points of X_nom outside X_MC (the exceptions to eq. 15) solid red; r_sync dotted.
 """
 

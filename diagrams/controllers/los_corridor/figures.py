@@ -1,12 +1,12 @@
 """PNG figures of paper 004's rotating-LOS-corridor guidance (Secs. 5-7), from a run's log.
 
-Owns: the figure functions `figure_los_corridor` and `figure_los_body_frame` (`run_figures()`,
-which the plug-in's `run_figures()` hands rpod.diagrams.plots.write_plots); two pure functions
-for any code that reports on the corridor: `violation_summary` (the depth, time in violation
-and first time of a violation) and `section_slopes` (the corridor's sections through its axis).
-Does not own: the corridor (rpod.models.los_corridor), the guidance, the log, nor writing the
-files (plots.write_plots: atomic saves, stale files removed, a figure that fails only warns,
-shapes checked by `plots.RunLog` against the generic shapes and the plug-in's `log_shapes`).
+Owns: the figure functions `figure_los_corridor` and `figure_los_body_frame` and their
+`run_figures()`, which the plug-in hands rpod.diagrams.plots.write_plots; `section_slopes` (the
+corridor's sections through its axis, as drawn). Does not own: the corridor
+(rpod.models.los_corridor), the guidance, the log or `violation_summary` (metrics.py), nor
+writing the files (plots.write_plots: atomic saves, stale files removed, a figure that fails
+only warns, shapes checked by `plots.RunLog` against the generic shapes and the plug-in's
+`log_shapes`, plugin.py).
 
 Log keys (N samples, time first; any may be missing; in L unless named otherwise):
   los_range_m (N)              |p_TC| [m].
@@ -39,9 +39,9 @@ Figures:
 Decisions:
 - A figure is drawn only for a run that logged a usable los_* key: the body-frame path alone
   (any run with q_IT) does not make a LOS figure. A panel without data is omitted.
-- Violation: a sample whose least distance over the n_f + 1 planes is below -tol, tol = 1e-3 m (paper
-  004 Sec. 9's classification tolerance). Sample i is held over [t_i, t_{i+1}) as the heatmaps
-  of plots.py draw it; the last sample lasts as long as the one before (a single sample: 0 s).
+- Violation: as metrics.py counts it (`violation_summary`: the least distance over the n_f + 1
+  planes below -1e-3 m, paper 004 Sec. 9's tolerance); sample i drawn over [t_i, t_{i+1}), as
+  the heatmaps of plots.py draw it.
 - The wedge: the corridor's sections by the planes z_T = 0 and x_T = 0 (apex at T's origin,
   rpod.models.los_corridor). In the plane z_T = 0 face i reads cos(theta_i) x_T <= tan(alpha_c)
   y_T, so the section is -s_- y_T <= x_T <= s_+ y_T with s_+- = tan(alpha_c) / max_i(+-cos
@@ -71,6 +71,7 @@ from matplotlib import colormaps
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
+from rpod.diagrams.controllers.los_corridor.metrics import violation_summary
 from rpod.diagrams.plots import (
     COMPONENT_COLOURS,
     DPI,
@@ -135,39 +136,6 @@ _FALLBACK = {
 
 # --------------------------------------------------------------------------------------------
 # Computations
-
-
-def violation_summary(
-    t: np.ndarray, distance: np.ndarray, tol: float = VIOLATION_TOLERANCE_M
-) -> tuple[float, float, float | None]:
-    """The worst depth, the time in violation and the first violating time of a corridor.
-
-    A sample violates when its least distance (over the columns of a 2-D `distance`) is below
-    -tol; NaN distances never violate. Sample i counts for t_{i+1} - t_i, the last one for the
-    interval before it (a single sample for 0).
-
-    Args:
-        t: Sample times (N,) [s].
-        distance: Signed distance to each constraint, positive inside, (N,) or (N, m) [m].
-        tol: Tolerance [m] (>= 0): a distance of exactly -tol is not a violation.
-
-    Returns:
-        (depth_m, duration_s, first_s): the largest -distance over the violating samples (0.0
-        when none), their summed durations (0.0 when none), and the time of the first one
-        (None when none).
-    """
-    t = np.asarray(t, dtype=float).reshape(-1)
-    d = np.asarray(distance, dtype=float)
-    if d.ndim == 2:
-        d = np.fmin.reduce(d, axis=1) if d.shape[1] else np.full(len(d), np.nan)  # NaN-skipping
-    if d.shape != t.shape:
-        raise ValueError(f"distance has {d.shape[0]} samples, t has {t.shape[0]}")
-    violating = d < -tol
-    if not violating.any():
-        return 0.0, 0.0, None
-    dt = np.diff(t)
-    held = np.r_[dt, dt[-1:]] if len(dt) else np.zeros(1)
-    return float(-d[violating].min()), float(held[violating].sum()), float(t[violating][0])
 
 
 def _floor_y(p_TC_T: np.ndarray | None, face_distance: np.ndarray | None) -> float | None:

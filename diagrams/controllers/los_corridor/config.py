@@ -1,0 +1,38 @@
+"""Paper 004's guidance config: the YAML tag `!LosCorridor`.
+
+Owns: `LosCorridor` (the fields of rpod.systems.los_guidance.LosGuidanceConfig plus how the
+guidance is flown and how far the scene draws the corridor) and its `validate()`; the choices
+of `actuation` and the PWM period of `actuation: thrusters`.
+Does not own: the guidance's own fields and checks (LosGuidanceConfig), the wiring (plugin.py).
+"""
+
+import dataclasses
+import math
+
+from rpod.systems.los_guidance import LosGuidanceConfig
+
+ACTUATIONS = ("ideal", "thrusters")
+THRUSTER_PERIOD_S = 0.1  # the PWM period of `actuation: thrusters` (10 Hz, as the hold point)
+
+
+@dataclasses.dataclass
+class LosCorridor(LosGuidanceConfig):
+    """Paper 004's guidance (fields: see LosGuidanceConfig) and how it is flown.
+
+    Args:
+        actuation: 'ideal' (paper 004: an ideal acceleration in L, box-bounded by a_max) or
+            'thrusters' (the scenario's fixed thruster bank through the allocator and PWM at
+            10 Hz, the chaser's attitude held in L).
+        corridor_length_m: how far along +y_T the scene draws the corridor [m].
+    """
+
+    actuation: str = "ideal"
+    corridor_length_m: float = 60.0
+
+    def validate(self) -> None:
+        """Raises ValueError('field: message') naming the first bad field."""
+        super().validate()
+        if self.actuation not in ACTUATIONS:
+            raise ValueError(f"actuation: must be one of {ACTUATIONS}, got {self.actuation!r}")
+        if not (math.isfinite(self.corridor_length_m) and self.corridor_length_m > self.floor_m):
+            raise ValueError(f"corridor_length_m: must be beyond the floor ({self.floor_m} m)")
