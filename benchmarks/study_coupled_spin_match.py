@@ -32,7 +32,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from machine import machine_line, write_results  # benchmarks/machine.py, beside this script
 
-from rpod.diagrams.controllers import coupled_nmpc as plugin
+from rpod.diagrams.controllers.coupled_nmpc import problem as plugin  # make_planner
 from rpod.diagrams.simulate import simulate
 from rpod.models import coupled_relative as cr
 from rpod.planners.coupled_nmpc import CoupledNmpc as CoupledNmpcPlanner

@@ -1,13 +1,13 @@
 """PNG figures of paper 001's coupled 6-DOF NMPC (Sec. IV, Figs. 6-7), from a run's log.
 
 Owns: the figure functions `figure_coupled_state`, `figure_coupled_thrusters` and
-`figure_coupled_nmpc` (`run_figures()`, which the plug-in's `run_figures()` hands
-rpod.diagrams.plots.write_plots), and `gimbal_face_angles`, the pure function that measures how
-far each thruster's force leans inside its gimbal pyramid (eq. 16). Does not own: the model
-(frames, constraints: rpod.models.coupled_relative, rpod.models.thrusters), the controller, the
-log (the coupled_nmpc plug-in), nor writing the files (plots.write_plots: atomic saves through
-`save_figure`, stale files removed, a figure that fails only warns, shapes checked by
-`plots.RunLog` against the generic shapes and the plug-in's `log_shapes`).
+`figure_coupled_nmpc` and their `run_figures()`, which the plug-in hands
+rpod.diagrams.plots.write_plots. Does not own: the model (frames, constraints:
+rpod.models.coupled_relative, rpod.models.gimbal), the controller, the log and the measures
+drawn (metrics.py: `gimbal_face_angles`, `los_counted_outside`, `outside_summary`), nor writing
+the files (plots.write_plots: atomic saves through `save_figure`, stale files removed, a figure
+that fails only warns, shapes checked by `plots.RunLog` against the generic shapes and the
+plug-in's `log_shapes`, plugin.py).
 
 Log keys (N samples, time first; all drawn only when coupled_eigenaxis_error_rad is logged):
   coupled_eigenaxis_error_rad (N)      theta_c/t = acos((tr R_TC - 1) / 2) (eq. 5) [rad].
@@ -39,11 +39,9 @@ Figures:
                          the title; the samples the outcome line counts); (b) the NMPC's solve time; (c) status and fallback strips.
 
 Decisions:
-- Gimbal angle: the pyramid of eq. 16 bounds |f.e| <= tan(alpha) f.n separately for its two
-  lateral axes e in {i_K, k_K} (n the nominal direction `layout.directions_C[k]`), so its limit is
-  alpha on each face while a corner lies atan(sqrt(2) tan(alpha)) = 54.7 deg (alpha = 45 deg)
-  off n. Plotted: the largest face-angle phi_k = max_e atan2(|f.e|, f.n), the angle of f off n
-  in the plane of (n, e). For f != 0, phi_k <= alpha exactly when A_k f <= 0 (every row), so the
+- Gimbal angle: plotted, the largest face-angle phi_k of metrics.py's `gimbal_face_angles`
+  (the angle of f off its nominal direction n in the plane of n and a lateral axis of eq. 16's
+  pyramid). For f != 0, phi_k <= alpha exactly when A_k f <= 0 (every row), so the
   curve touches the alpha line when a face is active and crosses it only when eq. 16 is violated;
   the cone angle of f off n would cross it at the corners, where eq. 16 still holds. A force
   below 1e-4 f_max has no meaningful direction: its angle is not drawn (NaN).
@@ -69,6 +67,13 @@ from matplotlib import colormaps
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
+from rpod.diagrams.controllers.coupled_nmpc.metrics import (
+    DISTANCE_TOLERANCE_M,
+    LOS_TOLERANCE_M,
+    gimbal_face_angles,
+    los_counted_outside,
+    outside_summary,
+)
 from rpod.diagrams.plots import (
     COMPONENT_COLOURS,
     DPI,
@@ -86,7 +91,7 @@ from rpod.diagrams.plots import (
     time_edges,
 )
 from rpod.models import coupled_relative as cr
-from rpod.models.thrusters import ThrusterLayout, gimbaled_cuboid_8, thruster_frame_C
+from rpod.models.thrusters import ThrusterLayout, gimbaled_cuboid_8
 
 _logger = logging.getLogger(__name__)
 
@@ -123,61 +128,6 @@ _FALLBACK_COLOURS = {"NONE": "#cfe8cf", "PREVIOUS_PLAN": "tab:orange", "ZERO_THR
 
 # --------------------------------------------------------------------------------------------
 # Computations
-
-
-def gimbal_face_angles(
-    layout: ThrusterLayout, f_K_C: np.ndarray, min_force_N: float = 0.0
-) -> np.ndarray:
-    """The largest face-angle of each thruster's force in its gimbal pyramid (eq. 16) [rad].
-
-    phi_k = max over e in {i_K, k_K} of atan2(|f_k . e|, f_k . n_k), n_k the nominal direction
-    (`layout.directions_C[k]`), i_K and k_K the lateral axes of `thruster_frame_C` (the axes of
-    `gimbal_polyhedron`'s faces). For f_k != 0, phi_k <= alpha_k exactly when A_k f_k <= 0:
-    0 along n_k, alpha_k on a face (and on an edge of the pyramid), above alpha_k outside,
-    pi / 2 or more for a force that does not point along n_k at all (module docstring).
-
-    Args:
-        layout: The thrusters (positions unused).
-        f_K_C: Forces on the chaser in C, (N, 3 n) stacked thruster by thruster, (N, n, 3), or
-            one sample (3 n,) or (n, 3) [N].
-        min_force_N: Forces with |f_k| <= this give NaN (no meaningful direction); a zero force
-            always does.
-
-    Returns:
-        (N, n) angles [rad] in [0, pi], or (n,) for one sample.
-    """
-    F = np.asarray(f_K_C, dtype=float)
-    single = F.ndim == 1 or (F.ndim == 2 and F.shape == (layout.count, 3))
-    F = F.reshape(-1, layout.count, 3)
-    n = layout.directions_C  # (n, 3)
-    frames = np.stack([thruster_frame_C(thruster) for thruster in layout.thrusters])
-    along = np.einsum("tkj,kj->tk", F, n)
-    lateral_i = np.einsum("tkj,kj->tk", F, frames[:, :, 0])  # i_K, the first column
-    lateral_k = np.einsum("tkj,kj->tk", F, frames[:, :, 2])  # k_K, the third column
-    phi = np.maximum(
-        np.arctan2(np.abs(lateral_i), along),  # face pair +-i_K of eq. 16
-        np.arctan2(np.abs(lateral_k), along),  # face pair +-k_K of eq. 16
-    )
-    magnitude = np.linalg.norm(F, axis=2)
-    phi = np.where((magnitude > min_force_N) & (magnitude > 0.0), phi, np.nan)
-    return phi[0] if single else phi
-
-
-def _outside_summary(t: np.ndarray, margin: np.ndarray) -> tuple[float, float, float | None]:
-    """(time outside [s], deepest [m], last exit [s] or None) of a margin (< 0 outside).
-
-    Sample i is held over [t_i, t_{i+1}) (the last one as long as the one before); the last exit
-    is the time of the first sample inside after the last one outside (None when the run ends
-    outside or never was outside).
-    """
-    outside = margin < 0.0
-    if not outside.any():
-        return 0.0, 0.0, None
-    dt = np.diff(t)
-    held = np.r_[dt, dt[-1:]] if len(dt) else np.zeros(1)
-    last = int(np.flatnonzero(outside)[-1])
-    exit_s = float(t[last + 1]) if last + 1 < len(t) else None
-    return float(held[outside].sum()), float(-margin[outside].min()), exit_s
 
 
 def _rebuilt_layout() -> ThrusterLayout:
@@ -473,13 +423,7 @@ def _fallback_styles(codes: np.ndarray) -> dict[int, tuple[str, str]]:
 
 
 def _panel_los(ax, log: RunLog, edges) -> None:
-    # The samples the run's outcome line counts (the plug-in's rule), so the two agree.
-    from rpod.diagrams.controllers.coupled_nmpc import (  # here: the plug-in imports this module
-        DISTANCE_TOLERANCE_M,
-        LOS_TOLERANCE_M,
-        los_counted_outside,
-    )
-
+    # The samples the run's outcome line counts (metrics.py's rule), so the two agree.
     t, margin = log.t, log.get("coupled_los_margin_m")
     p = log.get("coupled_p_PtPc_T_m")
     distance = np.linalg.norm(p, axis=1) if p is not None else np.full(len(t), np.inf)
@@ -491,7 +435,7 @@ def _panel_los(ax, log: RunLog, edges) -> None:
     ax.axhline(0.0, color="tab:red", lw=0.9, ls="--")
     _signed_scale(ax, margin)
     counted = np.where(outside, margin, 0.0)
-    duration, depth, exit_s = _outside_summary(t, counted)
+    duration, depth, exit_s = outside_summary(t, counted)
     if depth == 0.0:
         text = "inside throughout"
     else:

@@ -17,8 +17,8 @@ import pytest
 from scipy.integrate import cumulative_trapezoid
 
 from rpod.diagrams.controller_seam import Actuation, plugin_for
-from rpod.diagrams.controllers import coupled_nmpc as plugin_module
 from rpod.diagrams.controllers.coupled_nmpc import CoupledNmpc, coupled_params
+from rpod.diagrams.controllers.coupled_nmpc import problem as plugin_module
 from rpod.diagrams.scenario import make_thruster_layout
 from rpod.diagrams.simulate import simulate
 from rpod.models import coupled_relative as cr

@@ -1,4 +1,4 @@
-"""Tests of rpod.diagrams.plots_coupled: paper 001's coupled-NMPC figures and the gimbal angle.
+"""Tests of rpod.diagrams.controllers.coupled_nmpc's figures and its gimbal face-angle.
 
 Truths: PNGs are read back with matplotlib.image.imread and must carry ink (as in test_plots);
 without coupled_eigenaxis_error_rad no coupled figure is written and a stale one is removed;
@@ -18,15 +18,15 @@ import matplotlib.image
 import numpy as np
 import pytest
 
-from rpod.diagrams import plots_coupled
-from rpod.diagrams.controllers.coupled_nmpc import LOG_SHAPES
-from rpod.diagrams.plots import RunLog, write_plots
-from rpod.diagrams.plots_coupled import FIGURE_NAMES as COUPLED_FIGURE_NAMES
-from rpod.diagrams.plots_coupled import (
-    _outside_summary,
-    figure_coupled_thrusters,
+from rpod.diagrams.controllers.coupled_nmpc import (
+    LOG_SHAPES,
     gimbal_face_angles,
+    outside_summary,
 )
+from rpod.diagrams.controllers.coupled_nmpc import figures as plots_coupled
+from rpod.diagrams.controllers.coupled_nmpc.figures import FIGURE_NAMES as COUPLED_FIGURE_NAMES
+from rpod.diagrams.controllers.coupled_nmpc.figures import figure_coupled_thrusters
+from rpod.diagrams.plots import RunLog, write_plots
 from rpod.models.gimbal import gimbal_polyhedron, thruster_frame_C
 from rpod.models.thrusters import gimbaled_cuboid_8
 
@@ -192,10 +192,10 @@ def test_gimbal_face_angle_is_within_alpha_exactly_when_eq_16_holds():
 def test_outside_summary_hand_cases():
     t = np.arange(6.0)
     # Outside (< 0) at samples 0, 1 and 3, each held 1 s; the deepest 4 m; inside from t = 4 on.
-    assert _outside_summary(t, np.array([-4.0, -1.0, 0.5, -0.2, 0.0, 3.0])) == (3.0, 4.0, 4.0)
+    assert outside_summary(t, np.array([-4.0, -1.0, 0.5, -0.2, 0.0, 3.0])) == (3.0, 4.0, 4.0)
     # Ends outside: no exit; the last sample held as long as the one before.
-    assert _outside_summary(t, np.array([1.0, 1.0, 1.0, 1.0, -2.0, -1.0])) == (2.0, 2.0, None)
-    assert _outside_summary(t, np.ones(6)) == (0.0, 0.0, None)
+    assert outside_summary(t, np.array([1.0, 1.0, 1.0, 1.0, -2.0, -1.0])) == (2.0, 2.0, None)
+    assert outside_summary(t, np.ones(6)) == (0.0, 0.0, None)
 
 
 def test_the_los_panel_counts_the_samples_the_outcome_line_counts():

@@ -1,0 +1,86 @@
+"""Paper 001's coupled 6-DOF NMPC config: the YAML tag `!CoupledNmpc`.
+
+Owns: `CoupledNmpc` (how the NMPC of Sec. III-D is sampled, the plan's thrust limit, the feature
+points when not the scenario's, the integral weight Q_xi and the transcription settings) and its
+`validate()`; `INTEGRAL_WEIGHT`, rpod's default Q_xi.
+Does not own: the problem data derived from the scenario (problem.py), the NLP's settings
+(rpod.planners.coupled_nmpc.CoupledNmpcSettings) or the wiring (plugin.py).
+
+Q_xi: a config field (`integral_weight`) whose default is rpod's 1e-6, not the 1e-9 our copy's
+"109" reads as: with 1e-9 the integral term never removes the steady offset (1.4-1.6 m from the
+rock; tests/planners/test_coupled_sqp.py shows it), against Sec. IV's claim of an offset-free
+steady state, which 1e-6 delivers.
+"""
+
+import dataclasses
+import math
+
+from rpod.models import coupled_relative as cr
+from rpod.planners.coupled_nmpc import CoupledNmpcSettings
+
+INTEGRAL_WEIGHT = 1e-6  # Q_xi / I3: rpod's, not the printed 1e-9 (module docstring)
+
+
+@dataclasses.dataclass
+class CoupledNmpc:
+    """Paper 001's NMPC (Sec. III-D) and how it is sampled; problem data: module docstring.
+
+    Args:
+        control_period_s: T_c, the receding-horizon period (eq. 23): u*(0) is held for T_c,
+            then (22) is solved again. Sec. IV: T_s = T / N = 60 s. 0 would mean T / N
+            (`period_s`), but the scenario's check on controller.control_period_s refuses 0.
+        integral_step_s: the trapezoid step of the integral state xi_T (eq. 14) [s].
+        max_thrust_N: f_max of eq. 17 in the plan; 0 (default): the thrusters' own
+            (thrusters.max_thrust_N). A positive value, at most that, plans with a margin
+            below the limit the bank enforces.
+        target_feature_point_T_m: r^t_pt/t, the rock on the target, in T [m]; empty
+            (default): target.docking_port_T.
+        chaser_feature_point_C_m: r^c_pc/c, the end effector on the chaser, in C [m]; empty
+            (default): chaser.capture_point_C.
+        integral_weight: Q_xi = integral_weight I3 of eq. 20 [1 / (m s)^2 per s]; module
+            docstring for why the default is not the paper's printed value.
+        nmpc: the transcription and solver of (22) (horizon_s T, intervals N, solver, ...;
+            rpod.planners.coupled_nmpc.CoupledNmpcSettings, defaults Sec. IV: T = 480 s, N = 8).
+    """
+
+    control_period_s: float = cr.HORIZON_S / cr.HORIZON_INTERVALS
+    integral_step_s: float = 1.0
+    max_thrust_N: float = 0.0
+    target_feature_point_T_m: list[float] = dataclasses.field(default_factory=list)
+    chaser_feature_point_C_m: list[float] = dataclasses.field(default_factory=list)
+    integral_weight: float = INTEGRAL_WEIGHT
+    nmpc: CoupledNmpcSettings = dataclasses.field(default_factory=CoupledNmpcSettings)
+
+    def period_s(self) -> float:
+        """T_c [s]: control_period_s, or T / N when it is 0."""
+        if self.control_period_s == 0:
+            return self.nmpc.horizon_s / self.nmpc.intervals
+        return float(self.control_period_s)
+
+    def validate(self) -> None:
+        """Raises ValueError('field: message') naming the first bad field."""
+        try:
+            self.nmpc.validate()
+        except ValueError as error:
+            raise ValueError(f"nmpc.{error}") from None
+        if not (math.isfinite(self.control_period_s) and self.control_period_s >= 0):
+            raise ValueError(
+                f"control_period_s: must be positive (or 0: T / N), got {self.control_period_s}"
+            )
+        if not (math.isfinite(self.integral_step_s) and self.integral_step_s > 0):
+            raise ValueError(f"integral_step_s: must be positive, got {self.integral_step_s}")
+        if self.integral_step_s > self.period_s():
+            raise ValueError(
+                f"integral_step_s: must not exceed the control period ({self.period_s():g} s), "
+                f"got {self.integral_step_s:g}"
+            )
+        if not (math.isfinite(self.integral_weight) and self.integral_weight >= 0):
+            raise ValueError(f"integral_weight: must be >= 0, got {self.integral_weight}")
+        if not (math.isfinite(self.max_thrust_N) and self.max_thrust_N >= 0):
+            raise ValueError(
+                f"max_thrust_N: must be positive (or 0: the thrusters'), got {self.max_thrust_N}"
+            )
+        for name in ("target_feature_point_T_m", "chaser_feature_point_C_m"):
+            value = getattr(self, name)
+            if value and (len(value) != 3 or not all(math.isfinite(v) for v in value)):
+                raise ValueError(f"{name}: must be empty or 3 finite numbers, got {value}")
