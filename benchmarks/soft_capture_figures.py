@@ -28,7 +28,7 @@ import numpy as np
 from machine import machine_line, write_results  # benchmarks/machine.py, beside this script
 
 from rpod.diagrams.controllers.soft_capture import controller_config
-from rpod.diagrams.plan_plots import (
+from rpod.diagrams.controllers.soft_capture.plan_figures import (
     write_alpha_overlay_plot,
     write_scp_correction_plots,
     write_start_outcomes_plot,

@@ -5,8 +5,8 @@ Owns: `plan_scenario` (paper 000's planner on a scenario's initial state, no sim
 staging folder renamed into place, as `rpod.scenarios.run.run_to_folder` does), under the same
 rules for the output folder (`rpod.scenarios.run.check_out_dir`: checked before planning, and a
 folder rpod did not write is only replaced with `overwrite`).
-Does not own: the planner (rpod.planners), the plots (rpod.diagrams.plan_plots), or the command
-line (cli.py).
+Does not own: the planner (rpod.planners), the plots
+(rpod.diagrams.controllers.soft_capture.plan_figures), or the command line (cli.py).
 
 What is planned (today the !SoftCapture plug-in's `make_plan`,
 rpod.diagrams.controllers.soft_capture.plan_scenario). The planner's config (its settings as
@@ -39,7 +39,7 @@ import pathlib
 import numpy as np
 
 from rpod.diagrams import controller_seam
-from rpod.diagrams.plan_plots import write_plan_plots
+from rpod.diagrams.controllers.soft_capture.plan_figures import write_plan_plots
 from rpod.diagrams.scenario import Scenario
 from rpod.scenarios.loader import ScenarioFileError, dump_scenario
 from rpod.scenarios.run import check_out_dir, staged_folder

@@ -1,4 +1,4 @@
-"""Tests of the figures of several plans in rpod.diagrams.plan_plots (paper 000's Figs. 5-9).
+"""Tests of the figures of several plans in soft_capture.plan_figures (paper 000's Figs. 5-9).
 
 Truths: a PNG is read back with matplotlib.image.imread (a truncated or non-PNG file fails there)
 and must hold more than one colour; a failure status must put its own colour (tab:red, the first
@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from matplotlib.colors import to_rgb
 
-from rpod.diagrams.plan_plots import (
+from rpod.diagrams.controllers.soft_capture.plan_figures import (
     SCP_FIGURE_NAMES,
     write_alpha_overlay_plot,
     write_scp_correction_plots,

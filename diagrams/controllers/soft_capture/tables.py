@@ -1,7 +1,8 @@
 """A soft-capture campaign beside paper 000's Sec. VI-B numbers (for `rpod report`).
 
-Owns: reading the planner records and capture outcomes out of the stored run summaries and
-turning them into the paper's quantities. Does not own: formatting (report.py) or the store.
+Owns: `campaign_table` (the plug-in's `campaign_table`) and `soft_capture_rows`: reading the
+planner records and capture outcomes out of the stored run summaries and turning them into the
+paper's quantities. Does not own: formatting (rpod.scenarios.report) or the store.
 
 What is counted, over the runs that finished `ok` and have planner records (`plans`):
 - The initial plan of each run (its first planner call, at t = 0, full horizon search) is the
@@ -99,3 +100,12 @@ def soft_capture_rows(rows: list[dict]) -> list[list[str]] | None:
     for reason, count in failures.most_common():
         table.append([f"  capture failed: {reason}", str(count), ""])
     return table
+
+
+def campaign_table(rows: list[dict]) -> tuple[str, list[str], list[list[str]]] | None:
+    """The `rpod report` table of a soft-capture campaign (soft_capture_rows), or None."""
+    table = soft_capture_rows(rows)
+    if not table:
+        return None
+    title = "Soft capture beside paper 000 Sec. VI-B (initial plans; soft_capture/tables.py):"
+    return title, ["quantity", "this campaign", "paper 000"], table

@@ -2,7 +2,7 @@
 
 import pytest
 
-from rpod.diagrams.controllers.soft_capture_stats import soft_capture_rows
+from rpod.diagrams.controllers.soft_capture import soft_capture_rows
 from rpod.scenarios.report import summary_text
 
 
