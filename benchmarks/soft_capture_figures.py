@@ -27,7 +27,12 @@ import time
 import numpy as np
 from machine import machine_line, write_results  # benchmarks/machine.py, beside this script
 
-from rpod.diagrams.controllers.soft_capture import controller_config
+from rpod.diagrams.controllers.soft_capture import (
+    controller_config,
+    plan_arrays,
+    plan_scenario,
+    plan_summary,
+)
 from rpod.diagrams.controllers.soft_capture.plan_figures import (
     write_alpha_overlay_plot,
     write_scp_correction_plots,
@@ -45,7 +50,6 @@ from rpod.planners.checked_plan import predict_plan_check
 from rpod.planners.soft_capture import SoftCapturePlanner
 from rpod.scenarios.campaign import apply_overrides, load_campaign, plan_runs
 from rpod.scenarios.loader import load_scenario
-from rpod.scenarios.plan import plan_arrays, plan_scenario, plan_summary
 
 RESULTS = pathlib.Path(__file__).parent / "results"
 FIGURES = RESULTS / "soft_capture_figures"
@@ -101,9 +105,9 @@ def scp_iterates(result, scenario) -> list[dict]:
 def example(figures: pathlib.Path) -> dict:
     """Plans `soft_capture` as `rpod plan` does and writes Figs. 5-7; returns its numbers."""
     name, scenario = load_scenario("soft_capture")
-    result = plan_scenario(name, scenario)
+    result = plan_scenario(scenario)
     report = result.checked.report
-    summary = plan_summary(name, result, report)
+    summary = plan_summary(result, report) | {"status": result.checked.status.value}
     iterates = scp_iterates(result, scenario)
     write_scp_correction_plots(iterates, figures, title=f"{name} (rpod plan)")
     config = result.config

@@ -214,7 +214,7 @@ def test_random_sec_vib_starts_capture_in_closed_loop(seed):
 
     from rpod.models.cw import passively_safe_state
     from rpod.planners.pointing import min_rotation
-    from rpod.scenarios.plan import plan_scenario
+    from rpod.diagrams.controllers.soft_capture import plan_scenario
 
     rng = np.random.default_rng(seed)
     _, base = load_scenario("soft_capture")
@@ -237,7 +237,7 @@ def test_random_sec_vib_starts_capture_in_closed_loop(seed):
         scenario.chaser.rpy_LC_deg = np.degrees(
             RollPitchYaw(RotationMatrix(R_LC)).vector()
         ).tolist()
-        plan = plan_scenario("sample", scenario, closed_loop=True).plan
+        plan = plan_scenario(scenario, closed_loop=True).plan
         if not plan.success:
             continue
         scenario.duration_s = float(plan.N - 1 + 10)

@@ -8,6 +8,7 @@ which only `rpod plan` and the benchmarks import.
   config.py        the YAML tag's config `SoftCapture` (closed loop and planner settings).
   problem.py       the planner's problem data derived from the scenario.
   planning.py      `plan_scenario`: the plan from the initial state (`rpod plan`).
+  plan_file.py     what `rpod plan` writes of it: plan.npz's arrays, the summary, the figures.
   plugin.py        `SoftCapturePlugin`: checks, wiring (path 1), scene overlay, hooks.
   metrics.py       the capture criterion, the plans' knots, summary.json's entries, outcome.
   tables.py        `rpod report`: a campaign beside paper 000 Sec. VI-B.
@@ -21,6 +22,7 @@ from rpod.diagrams.controllers.soft_capture.metrics import (
     plan_knots,
     soft_capture_results,
 )
+from rpod.diagrams.controllers.soft_capture.plan_file import plan_arrays, plan_output, plan_summary
 from rpod.diagrams.controllers.soft_capture.planning import ScenarioPlan, plan_scenario
 from rpod.diagrams.controllers.soft_capture.plugin import LOGGED, SoftCapturePlugin
 from rpod.diagrams.controllers.soft_capture.problem import controller_config, planner_config
@@ -34,8 +36,11 @@ __all__ = [
     "campaign_table",
     "capture_outcome",
     "controller_config",
+    "plan_arrays",
     "plan_knots",
+    "plan_output",
     "plan_scenario",
+    "plan_summary",
     "planner_config",
     "soft_capture_results",
     "soft_capture_rows",

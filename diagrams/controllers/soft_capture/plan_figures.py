@@ -233,13 +233,13 @@ def _figure_state(plan: Mapping, title: str) -> Figure:
     return fig
 
 
-_FIGURES = {
+FIGURES = {
     "trajectory.png": _figure_trajectory,
     "thrust.png": _figure_thrust,
     "alpha.png": _figure_alpha,
     "state.png": _figure_state,
 }
-assert tuple(_FIGURES) == PLAN_FIGURE_NAMES
+assert tuple(FIGURES) == PLAN_FIGURE_NAMES
 
 
 def write_plan_plots(plan: Mapping, out_dir: Path, title: str = "") -> list[Path]:
@@ -261,7 +261,7 @@ def write_plan_plots(plan: Mapping, out_dir: Path, title: str = "") -> list[Path
     out_dir.mkdir(parents=True, exist_ok=True)
     drawable = len(np.asarray(plan["t"])) >= 2
     written = []
-    for name, make in _FIGURES.items():
+    for name, make in FIGURES.items():
         path = out_dir / name
         if not drawable:
             path.unlink(missing_ok=True)

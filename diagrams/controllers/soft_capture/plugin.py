@@ -15,11 +15,13 @@ from rpod.diagrams.controller_seam import (
     ControllerPlugin,
     ControllerResults,
     ControllerWiring,
+    PlanOutput,
 )
 from rpod.diagrams.controllers.soft_capture import tables
 from rpod.diagrams.controllers.soft_capture.config import SoftCapture
 from rpod.diagrams.controllers.soft_capture.metrics import soft_capture_results
-from rpod.diagrams.controllers.soft_capture.planning import ScenarioPlan, plan_scenario
+from rpod.diagrams.controllers.soft_capture.plan_file import plan_output
+from rpod.diagrams.controllers.soft_capture.planning import plan_scenario
 from rpod.diagrams.controllers.soft_capture.problem import controller_config, planner_config
 from rpod.diagrams.scenario import ScenarioError, body_polytopes
 from rpod.systems.sensed import SENSED_PORT
@@ -109,9 +111,10 @@ class SoftCapturePlugin(ControllerPlugin):
         return tables.campaign_table(rows)
 
     @staticmethod
-    def make_plan(scenario, closed_loop: bool = False) -> ScenarioPlan:
-        """`rpod plan`: the plan from the scenario's initial state (plan_scenario)."""
-        return plan_scenario(scenario, closed_loop)
+    def make_plan(scenario, closed_loop: bool = False) -> PlanOutput:
+        """`rpod plan`: the plan from the scenario's initial state (planning.plan_scenario),
+        as plan_file.plan_output writes it."""
+        return plan_output(plan_scenario(scenario, closed_loop))
 
     def results(self, scenario, wiring, context, log) -> ControllerResults:
         """metrics.py's log additions (codes as int64, the plans' knots), summary, outcome."""
