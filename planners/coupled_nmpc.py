@@ -90,6 +90,7 @@ from pydrake.solvers import (
 from scipy.integrate import solve_ivp
 
 from rpod.models import coupled_relative as cr
+from rpod.models.config import ConfigError, bounded, check_bounds, count, positive
 from rpod.models.thrusters import gimbal_polyhedron
 from rpod.planners import coupled_shooting as cs
 from rpod.planners.coupled_casadi import CasadiTranscription
@@ -146,6 +147,10 @@ _IPOPT_STATUS = {
 
 SOLVERS = ("ipopt", "snopt", "sqp", "rti", "casadi_ipopt")
 
+MAX_RK4_STEPS = 1000
+"""Most RK4 steps over the horizon (intervals x rk4_substeps; Sec. IV's: 16): the work of every
+solver iteration grows with them (CoupledNmpcSettings)."""
+
 
 @dataclasses.dataclass
 class CoupledNmpcSettings:
@@ -170,37 +175,46 @@ class CoupledNmpcSettings:
         compile_derivatives: "casadi_ipopt" only: compile the intervals' derivatives to C
             (rpod.planners.coupled_casadi.compile_functions; ~40-80 s once, then cached on disk).
             Off, or without a C compiler, CasADi's virtual machine evaluates them, ~5x slower.
+
+    Bounds (rpod.models.config, checked by `validate()`): the horizon at most the scenario's
+    MAX_DURATION_S; at most 200 intervals and 100 RK4 steps per interval, and at most
+    MAX_RK4_STEPS over the horizon (every SQP iteration integrates and differentiates each of
+    them: measured ~15 ms per RK4 step per iteration through Drake's AutoDiffXd on 2 shared
+    cores, 1.9 s at 64 intervals of 2 steps, against 0.2 s at Sec. IV's 8); at most 10000 solver
+    iterations; the tolerance in (0, 1]; the slack weight up to 1e9; the LOS half-angle in
+    (0, pi/2) (a pyramid); the rate box up to a revolution a second.
     """
 
-    horizon_s: float = cr.HORIZON_S
-    intervals: int = cr.HORIZON_INTERVALS
-    rk4_substeps: int = 2
+    horizon_s: float = positive(cr.HORIZON_S, 1e6)
+    intervals: int = count(cr.HORIZON_INTERVALS, 1, 200)
+    rk4_substeps: int = count(2, 2, 100)
     solver: str = "ipopt"
-    max_iterations: int = 300
-    tolerance: float = 1e-6
-    los_slack_weight: float = cr.LOS_SLACK_WEIGHT
-    los_half_angle_rad: float = cr.LOS_HALF_ANGLE_RAD
-    max_relative_rate_rad_s: float = 0.02
+    max_iterations: int = count(300, 1, 10_000)
+    tolerance: float = positive(1e-6, 1.0)
+    los_slack_weight: float = positive(cr.LOS_SLACK_WEIGHT, 1e9)
+    los_half_angle_rad: float = bounded(
+        cr.LOS_HALF_ANGLE_RAD, 0.0, math.pi / 2, low_open=True, high_open=True
+    )
+    max_relative_rate_rad_s: float = positive(0.02, 2.0 * math.pi)
     sqp: SqpSettings = dataclasses.field(default_factory=SqpSettings)
     compile_derivatives: bool = True
 
     def validate(self) -> None:
-        """Raises ValueError('field: message') naming the first bad field."""
+        """Raises ConfigError naming the first bad field: its declared bounds (check_bounds,
+        `sqp.<field>` included), then the checks that need more than one field."""
+        check_bounds(self)
         for name in ("intervals", "rk4_substeps", "max_iterations"):
             value = getattr(self, name)
-            if int(value) != value or value < 1:
-                raise ValueError(f"{name}: must be a positive integer, got {value!r}")
-        if self.rk4_substeps < 2:
-            raise ValueError(f"rk4_substeps: must be >= 2, got {self.rk4_substeps}")
+            if int(value) != value:
+                raise ConfigError(name, f"must be a positive integer, got {value!r}")
         if self.solver not in SOLVERS:
-            raise ValueError(f"solver: must be one of {SOLVERS}, got {self.solver!r}")
-        for name in ("horizon_s", "tolerance", "los_slack_weight", "max_relative_rate_rad_s"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0):
-                raise ValueError(f"{name}: must be positive, got {value!r}")
-        if not 0.0 < self.los_half_angle_rad < math.pi / 2:
-            raise ValueError(
-                f"los_half_angle_rad: must be in (0, pi/2), got {self.los_half_angle_rad}"
+            raise ConfigError("solver", f"must be one of {SOLVERS}, got {self.solver!r}")
+        steps = self.intervals * self.rk4_substeps
+        if steps > MAX_RK4_STEPS:
+            raise ConfigError(
+                "rk4_substeps",
+                f"intervals x rk4_substeps = {steps} RK4 steps over the horizon, must be at most "
+                f"{MAX_RK4_STEPS}",
             )
 
 

@@ -44,6 +44,7 @@ import osqp
 import scipy.sparse as sp
 
 from rpod.models import coupled_relative as cr
+from rpod.models.config import bounded, check_bounds, count, positive
 from rpod.planners import coupled_shooting as cs
 
 _logger = logging.getLogger(__name__)
@@ -88,18 +89,27 @@ class SqpSettings:
         rti_osqp_eps: The same for a real-time iteration's QP (RTI's step is inexact by design;
             at 1e-6 OSQP's ADMM took ~900 iterations, 24 ms, on the closed loop's QPs).
         osqp_max_iter: OSQP's iteration limit.
+
+    Bounds (rpod.models.config, checked by `validate()`): SQP iterations in [1, 10000] (the
+    cold start's may be 0: then a cold solve stops at `max_iterations` too), each a full
+    shooting pass and QP; tolerances in (0, 1] (scaled; magnitude_tolerance_N up to 1000 N);
+    the regularization in [0, 1e9] (0: plain Gauss-Newton); OSQP at most 1e6 iterations.
     """
 
-    max_iterations: int = 50
-    cold_start_max_iterations: int = 100
-    step_tolerance: float = 1e-3
-    defect_tolerance: float = 1e-4
-    magnitude_tolerance_N: float = 1e-3
-    acceptable_defect: float = 1e-3
-    regularization: float = 1e-6
-    osqp_eps: float = 1e-6
-    rti_osqp_eps: float = 1e-4
-    osqp_max_iter: int = 20000
+    max_iterations: int = count(50, 1, 10_000)
+    cold_start_max_iterations: int = count(100, 0, 10_000)
+    step_tolerance: float = positive(1e-3, 1.0)
+    defect_tolerance: float = positive(1e-4, 1.0)
+    magnitude_tolerance_N: float = positive(1e-3, 1e3)
+    acceptable_defect: float = positive(1e-3, 1.0)
+    regularization: float = bounded(1e-6, 0.0, 1e9)
+    osqp_eps: float = positive(1e-6, 1.0)
+    rti_osqp_eps: float = positive(1e-4, 1.0)
+    osqp_max_iter: int = count(20000, 1, 1_000_000)
+
+    def validate(self) -> None:
+        """Raises ConfigError naming the first field outside its declared bounds."""
+        check_bounds(self)
 
 
 @dataclasses.dataclass
@@ -143,6 +153,7 @@ class CoupledSqp:
         self.rho = float(problem.los_slack_weight)
         self.w_max = float(problem.max_relative_rate_rad_s)
         self.settings = settings if settings is not None else SqpSettings()
+        self.settings.validate()
         layout = params.layout
         self.f_max = layout.max_thrusts_N
         self.directions = layout.directions_C

@@ -63,6 +63,8 @@ import numpy as np
 import osqp
 import scipy.sparse as sp
 
+from rpod.models.config import ConfigError, bounded, check_bounds, count, positive
+
 KEEP_OUT_FACTOR = 10.0  # the keep-out's penalty over the corridor's: the target first
 
 
@@ -125,43 +127,44 @@ class LosMpcSettings:
         corridor_penalty: rho of the best-effort QP (module docstring), per metre outside the
             corridor per predicted step; 0: no best-effort QP (what a failed hard QP flies is
             then the fallback chain alone, as the paper does).
+
+    Bounds (rpod.models.config, checked by `validate()`): the horizon at most 2000 steps (the
+    QP grows by 9 variables and a corridor row per face each step; measured ~1 ms per step per
+    solve: 0.04 s at 40, 2.1 s at 2000), the funnel no longer than the longest horizon; OSQP at
+    most 1e6 iterations (an ADMM iteration is one sparse back-solve); weights up to 1e9
+    (terminal_factor up to 1e6, so Q_N stays within 1e15); tolerances in (0, 1]; the input bound
+    up to 1000 m/s^2 (100 g); the margin and the check tolerance within 1 km.
     """
 
-    horizon: int = 40
-    Q_diag: list[float] = dataclasses.field(default_factory=lambda: [15, 30, 15, 1, 1, 1])
-    terminal_factor: float = 30.0
-    R_u_diag: list[float] = dataclasses.field(default_factory=lambda: [1e-2] * 3)
-    R_du_diag: list[float] = dataclasses.field(default_factory=lambda: [1e4] * 3)
-    a_max_m_s2: float = 0.10
-    eps_abs: float = 1e-4
-    eps_rel: float = 1e-4
-    max_iter: int = 4000
+    horizon: int = count(40, 1, 2000)
+    Q_diag: list[float] = bounded([15, 30, 15, 1, 1, 1], 0.0, 1e9)  # noqa: RUF009 (a field())
+    terminal_factor: float = positive(30.0, 1e6)
+    R_u_diag: list[float] = bounded([1e-2] * 3, 0.0, 1e9)  # noqa: RUF009
+    R_du_diag: list[float] = bounded([1e4] * 3, 0.0, 1e9)  # noqa: RUF009
+    a_max_m_s2: float = positive(0.10, 1e3)
+    eps_abs: float = positive(1e-4, 1.0)
+    eps_rel: float = positive(1e-4, 1.0)
+    max_iter: int = count(4000, 1, 1_000_000)
     shift_warm_start: bool = True
-    check_tolerance_m: float = 1e-3
+    check_tolerance_m: float = positive(1e-3, 1e3)
     polishing: bool = False
-    margin_m: float = 0.1
-    recovery_steps: int = 10
-    corridor_penalty: float = 1e5
+    margin_m: float = bounded(0.1, 0.0, 1e3)
+    recovery_steps: int = count(10, 0, 2000)
+    corridor_penalty: float = bounded(1e5, 0.0, 1e9)
 
     def validate(self) -> None:
-        """Raises ValueError('field: message') naming the first bad field."""
-        if int(self.horizon) != self.horizon or self.horizon < 1:
-            raise ValueError(f"horizon: must be a positive integer, got {self.horizon}")
+        """Raises ConfigError naming the first bad field: its declared bounds (check_bounds),
+        then the checks that need more than one number."""
+        check_bounds(self)
+        for name in ("horizon", "max_iter", "recovery_steps"):
+            value = getattr(self, name)
+            if int(value) != value:
+                raise ConfigError(name, f"must be an integer, got {value}")
         for name, size in (("Q_diag", 6), ("R_u_diag", 3), ("R_du_diag", 3)):
-            values = np.asarray(getattr(self, name), dtype=float)
-            if values.shape != (size,) or not np.all(np.isfinite(values)) or np.any(values < 0):
-                raise ValueError(f"{name}: expected {size} finite non-negative numbers")
-        if not (np.isfinite(self.margin_m) and self.margin_m >= 0):
-            raise ValueError(f"margin_m: must not be negative, got {self.margin_m}")
-        if int(self.recovery_steps) != self.recovery_steps or self.recovery_steps < 0:
-            raise ValueError(f"recovery_steps: must be an integer >= 0, got {self.recovery_steps}")
-        if not (np.isfinite(self.corridor_penalty) and self.corridor_penalty >= 0):
-            raise ValueError(f"corridor_penalty: must not be negative, got {self.corridor_penalty}")
+            if np.shape(getattr(self, name)) != (size,):
+                raise ConfigError(name, f"expected {size} finite non-negative numbers")
         if not np.all(np.asarray(self.R_u_diag) + np.asarray(self.R_du_diag) > 0):
-            raise ValueError("R_u_diag: R_u + R_du must be positive definite")
-        for name in ("terminal_factor", "a_max_m_s2", "eps_abs", "eps_rel", "check_tolerance_m"):
-            if not getattr(self, name) > 0:
-                raise ValueError(f"{name}: must be positive, got {getattr(self, name)}")
+            raise ConfigError("R_u_diag", "R_u + R_du must be positive definite")
 
 
 @dataclasses.dataclass

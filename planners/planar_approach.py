@@ -50,6 +50,7 @@ import numpy as np
 from pydrake.trajectories import PiecewisePolynomial
 
 from rpod.models import planar_approach as pa
+from rpod.models.config import ConfigError, bounded, check_bounds, count, positive
 from rpod.planners import planar_approach_problem as problem
 
 # Transitional: rpod.diagrams.controllers.planar_approach still imports check_plan from here
@@ -65,6 +66,12 @@ WARM_STARTS = ("scp", "guess")
 
 _MAX_TURN_BETWEEN_SAMPLES_RAD = 0.02
 """Automatic sampling: the target turns at most this much between two keep-out samples."""
+
+MAX_PLAN_KNOTS = 36_000
+"""Most knots of a candidate (its duration over dt_s): an hour at Sec. V's 10 Hz."""
+MAX_KEEPOUT_SAMPLES = 400_000
+"""Most keep-out points of a candidate (knots x points per step; each is a few rows of every
+subproblem): 100 times Sec. V-A's 4000, 20 times Case Study 1's largest (2000 knots x 10)."""
 
 
 @dataclasses.dataclass
@@ -102,24 +109,32 @@ class PlanarPlannerSettings:
             III-C as printed).
         goal_constraint: The goal as terminal constraints (beyond the paper): p_N = p_goal
             and v_N = omega_t z x p_N (the docking face's velocity), `planar_approach_problem`.
+
+    Bounds (rpod.models.config; `PlanarApproachConfig.validate`): durations within an hour
+    (with the step dt_s, at most MAX_PLAN_KNOTS knots and MAX_KEEPOUT_SAMPLES keep-out points:
+    the program grows with both; Sec. V-A's three candidates, 2600 knots in all, plan in ~5 s);
+    at most 100 candidates and 100 more, 100 keep-out points per step; 1000 SCP iterations
+    (QPs) and 10000 NLP iterations per candidate; weights up to 1e9 (w_goal positive, the
+    others may be 0); tolerances in (0, 1]; the goal's standoff within 1 km; the sharpness at
+    most 500, since exp(sharpness tanh(.)) overflows a double past 709.
     """
 
     wrench_limit: str = "planar_8"
-    goal_standoff_m: float = 0.0
-    w_goal: float = 100.0
-    w_u: float = 10.0
-    w_terminal_velocity: float = 1000.0
-    duration_min_s: float = 1.0
-    duration_max_s: float = 200.0
-    max_duration_candidates: int = 3
-    max_extra_candidates: int = 0
-    keepout_samples_per_step: int = 0
+    goal_standoff_m: float = bounded(0.0, 0.0, 1e3)
+    w_goal: float = positive(100.0, 1e9)
+    w_u: float = bounded(10.0, 0.0, 1e9)
+    w_terminal_velocity: float = bounded(1000.0, 0.0, 1e9)
+    duration_min_s: float = bounded(1.0, 0.0, 3600.0)
+    duration_max_s: float = positive(200.0, 3600.0)
+    max_duration_candidates: int = count(3, 1, 100)
+    max_extra_candidates: int = count(0, 0, 100)
+    keepout_samples_per_step: int = count(0, 0, 100)
     solver: str = "scp"
-    max_iterations: int = 40
-    nlp_max_iterations: int = 3000
-    scp_tolerance: float = 1e-6
-    nlp_tolerance: float = 1e-6
-    smooth_max_sharpness: float = 20.0
+    max_iterations: int = count(40, 1, 1000)
+    nlp_max_iterations: int = count(3000, 1, 10_000)
+    scp_tolerance: float = positive(1e-6, 1.0)
+    nlp_tolerance: float = positive(1e-6, 1.0)
+    smooth_max_sharpness: float = positive(20.0, 500.0)
     nlp_warm_start: str = "scp"
     state_ii_heading: bool = True
     goal_constraint: bool = False
@@ -143,79 +158,75 @@ class PlanarApproachConfig(PlanarPlannerSettings):
         dt_s: Largest NLP step (Sec. V's control period, 0.1 s); see `planar_approach_problem`.
         goal_tolerance_m: A plan whose end point is farther than this from p_goal is
             GOAL_MISSED, not a success (the mission's position tolerance, 5 cm).
+
+    Bounds: the spin within a revolution a second either way (the scenario's MAX_SPIN_DEG_S),
+    non-zero (`validate`); the angles within a turn either way; sides, tolerance within 1 km;
+    mass up to 1e6 kg, inertia up to 1e9 kg m^2, force and torque up to 1e6; the step up to the
+    scenario's MAX_DURATION_S.
     """
 
-    omega_target_rad_s: float = 0.1
-    theta_approach_rad: float = 0.75 * math.pi
-    theta_target0_rad: float = 0.0
-    chaser_side_m: float = 0.3
-    target_side_m: float = 0.3
-    chaser_mass_kg: float = 10.0
-    chaser_inertia_kg_m2: float = 0.15
-    max_force_N: float = 0.6
-    max_torque_Nm: float = 0.18
-    dt_s: float = 0.1
-    goal_tolerance_m: float = 0.05
+    omega_target_rad_s: float = bounded(0.1, -2.0 * math.pi, 2.0 * math.pi)
+    theta_approach_rad: float = bounded(0.75 * math.pi, -2.0 * math.pi, 2.0 * math.pi)
+    theta_target0_rad: float = bounded(0.0, -2.0 * math.pi, 2.0 * math.pi)
+    chaser_side_m: float = positive(0.3, 1e3)
+    target_side_m: float = positive(0.3, 1e3)
+    chaser_mass_kg: float = positive(10.0, 1e6)
+    chaser_inertia_kg_m2: float = positive(0.15, 1e9)
+    max_force_N: float = positive(0.6, 1e6)
+    max_torque_Nm: float = positive(0.18, 1e6)
+    dt_s: float = positive(0.1, 1e6)
+    goal_tolerance_m: float = positive(0.05, 1e3)
 
     def validate(self) -> None:
-        """Raises ValueError('field: message') naming the first bad field."""
-        positive = (
-            "chaser_side_m",
-            "target_side_m",
-            "chaser_mass_kg",
-            "chaser_inertia_kg_m2",
-            "max_force_N",
-            "max_torque_Nm",
-            "w_goal",
-            "dt_s",
-            "goal_tolerance_m",
-            "duration_max_s",
-            "scp_tolerance",
-            "nlp_tolerance",
-            "smooth_max_sharpness",
-        )
-        for name in positive:
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-                raise ValueError(f"{name}: must be a positive number, got {value!r}")
-        for name in ("omega_target_rad_s", "theta_approach_rad", "theta_target0_rad"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value)):
-                raise ValueError(f"{name}: must be a finite number, got {value!r}")
+        """Raises ConfigError naming the first bad field: its declared bounds (check_bounds),
+        then the checks that need more than one field."""
+        check_bounds(self)
         if self.omega_target_rad_s == 0.0:
-            raise ValueError("omega_target_rad_s: must be non-zero (the durations come from it)")
-        value = self.max_extra_candidates
-        if int(value) != value or value < 0:
-            raise ValueError(f"max_extra_candidates: must be an integer >= 0, got {value!r}")
-        for name in ("w_u", "w_terminal_velocity", "duration_min_s", "goal_standoff_m"):
+            raise ConfigError("omega_target_rad_s", "must be non-zero (the durations come from it)")
+        for name in (
+            "max_duration_candidates",
+            "max_extra_candidates",
+            "keepout_samples_per_step",
+            "max_iterations",
+            "nlp_max_iterations",
+        ):
             value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
-                raise ValueError(f"{name}: must be >= 0, got {value!r}")
+            if int(value) != value:
+                raise ConfigError(name, f"must be an integer, got {value!r}")
         if self.duration_min_s > self.duration_max_s:
-            raise ValueError(
-                f"duration_min_s: {self.duration_min_s} exceeds duration_max_s "
-                f"{self.duration_max_s}"
+            raise ConfigError(
+                "duration_min_s",
+                f"{self.duration_min_s} exceeds duration_max_s {self.duration_max_s}",
             )
-        for name in ("max_duration_candidates", "max_iterations", "nlp_max_iterations"):
-            value = getattr(self, name)
-            if int(value) != value or value < 1:
-                raise ValueError(f"{name}: must be a positive integer, got {value!r}")
         for name in ("state_ii_heading", "goal_constraint"):
             value = getattr(self, name)
             if value is not True and value is not False:
-                raise ValueError(f"{name}: must be true or false, got {value!r}")
-        value = self.keepout_samples_per_step
-        if int(value) != value or value < 0:
-            raise ValueError(f"keepout_samples_per_step: must be an integer >= 0, got {value!r}")
+                raise ConfigError(name, f"must be true or false, got {value!r}")
         if self.solver not in SOLVERS:
-            raise ValueError(f"solver: must be one of {SOLVERS}, got {self.solver!r}")
+            raise ConfigError("solver", f"must be one of {SOLVERS}, got {self.solver!r}")
         if self.nlp_warm_start not in WARM_STARTS:
-            raise ValueError(
-                f"nlp_warm_start: must be one of {WARM_STARTS}, got {self.nlp_warm_start!r}"
+            raise ConfigError(
+                "nlp_warm_start", f"must be one of {WARM_STARTS}, got {self.nlp_warm_start!r}"
             )
         if self.wrench_limit not in WRENCH_LIMITS:
-            raise ValueError(
-                f"wrench_limit: must be one of {WRENCH_LIMITS}, got {self.wrench_limit!r}"
+            raise ConfigError(
+                "wrench_limit", f"must be one of {WRENCH_LIMITS}, got {self.wrench_limit!r}"
+            )
+        # The longest candidate is at most duration_max_s: its knots and keep-out points.
+        steps = self.duration_max_s / self.dt_s  # a float: inf for a dt_s of 1e-320
+        if steps - 1e-9 > MAX_PLAN_KNOTS:  # problem.grid's ceil
+            raise ConfigError(
+                "duration_max_s",
+                f"{self.duration_max_s:g} s at dt_s = {self.dt_s:g} s is {steps:.6g} knots, must "
+                f"be at most {MAX_PLAN_KNOTS}",
+            )
+        knots, dt = problem.grid(self, self.duration_max_s)
+        points = knots * self.samples_per_step(dt)
+        if points > MAX_KEEPOUT_SAMPLES:
+            raise ConfigError(
+                "keepout_samples_per_step",
+                f"{knots} knots of {self.samples_per_step(dt)} keep-out points are {points}, must "
+                f"be at most {MAX_KEEPOUT_SAMPLES}",
             )
 
     @property

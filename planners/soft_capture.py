@@ -42,10 +42,11 @@ from pydrake.math import RotationMatrix
 from pydrake.trajectories import PiecewisePolynomial
 
 from rpod.models.collision import ScalingMetricProgram
+from rpod.models.config import ConfigError, bounded, check_bounds, count, positive
 from rpod.models.cw import passively_safe_state
 from rpod.models.docking import capture_reach_T
 from rpod.models.frames import rotations_from_wxyz
-from rpod.models.gravity import mean_motion
+from rpod.models.gravity import R_EARTH_M, mean_motion
 from rpod.models.shapes import soft_capture_chaser_hull, soft_capture_target_hull
 from rpod.planners.pointing import pointing_attitudes
 from rpod.planners.soft_capture_scp import HorizonOutcome, solve_horizon
@@ -53,6 +54,11 @@ from rpod.planners.soft_capture_socp import SocpData, SoftCaptureSocp
 from rpod.planners.target_prediction import TargetPrediction, predict_target
 
 TERMINAL_VELOCITY_POINTS = ("chaser_capture_point", "chaser_center_of_mass")
+
+MAX_GRID_KNOTS = 50_000
+"""Most knots over the horizon grid (the sum of its N): the planner keeps a Problem 2 and a
+Problem 3 program for every N it tries, ~18 kB per knot for the pair (64 MB for ten horizons of
+~350 knots), so 50,000 knots is ~1 GB of programs; the default grid holds 6,240."""
 
 
 class PlanStatus(str, enum.Enum):
@@ -103,6 +109,11 @@ class SoftCaptureSettings:
     """How paper 000's soft capture is solved: Table I's weights, bounds and tolerances and the
     horizon search (the method, apart from the problem data of `SoftCaptureConfig`).
 
+    Every number declares its legal range (rpod.models.config), checked by `validate()`.
+    Generous but finite: a weight up to 1e9, a speed or range up to the scenario's own limits
+    (MAX_RELATIVE_SPEED_M_S, MAX_RANGE_M in rpod.diagrams.scenario), a horizon up to 5000 knots
+    (a Problem 3 solve costs ~1.4 ms per knot: ~7 s at 5000).
+
     Attributes:
         fuel_weight_gamma: gamma, weight of the L1 fuel term in Problem 3.
         problem2_fuel_weight: Weight of the L1 fuel term in Problem 2: 1 as the paper's
@@ -111,38 +122,43 @@ class SoftCaptureSettings:
         max_thrust_N: U_max, bound on |u_k| (9) [N].
         max_range_m: r_max, bound on the range lift rho_k (16) [m].
         max_speed_m_s: v_max, bound on |v_k| (10) [m/s].
-        max_los_rate_rad_s: omega_max, line-of-sight rate bound of the field of view (12) [rad/s].
+        max_los_rate_rad_s: omega_max, line-of-sight rate bound of the field of view (12)
+            [rad/s]; at most a revolution a second, and omega_max dt at most pi/2 (`validate`).
         capture_position_tol_m: eps_p, terminal position tolerance (13) [m].
         capture_speed_tol_m_s: eps_v, terminal velocity tolerance (14) [m/s].
         docking_knots: N_dock, number of final knots inside the docking cone (11).
-        alpha_min: Soft collision margin asked of the linearised rows (25); the hard test is 1.
-        max_scp_iterations: i_max, most Problem 3 solves per horizon.
-        dt_s: dt, knot spacing [s].
+        alpha_min: Soft collision margin asked of the linearised rows (25); the hard test is 1,
+            so it must exceed 1 (at most 100: hulls kept 100 times their size apart).
+        max_scp_iterations: i_max, most Problem 3 solves per horizon (0: Problem 2 only); at
+            most 1000, since the search may pay them at every horizon of the grid.
+        dt_s: dt, knot spacing [s]; at most 200 s, so that max_knots dt stays within the
+            scenario's MAX_DURATION_S (5000 x 200 s = 1e6 s).
         min_knots: N_min of the horizon search (Sec. VI-B).
         max_knots: N_max of the horizon search (Sec. VI-B).
         horizon_step: Step of the horizon search (module docstring; the paper gives none).
+            The grid's knots, summed, are at most MAX_GRID_KNOTS (`validate`).
         terminal_velocity_point: Which chaser point (14) constrains: "chaser_capture_point"
             (default) or "chaser_center_of_mass" (module docstring).
         check_tumble_limit: Return "tumble_rate_above_limit" without solving when the initial
             tumble rate exceeds min(omega_max, v_max / |D_c + D_t|) (Sec. VI-B's envelope).
     """
 
-    fuel_weight_gamma: float = 5.0
-    problem2_fuel_weight: float = 1.0
-    slack_penalty_psi: float = 750.0
-    max_thrust_N: float = 100.0
-    max_range_m: float = 100.0
-    max_speed_m_s: float = 1.5
-    max_los_rate_rad_s: float = 0.2
-    capture_position_tol_m: float = 0.35
-    capture_speed_tol_m_s: float = 0.03
-    docking_knots: int = 5
-    alpha_min: float = 1.3
-    max_scp_iterations: int = 15
-    dt_s: float = 1.0
-    min_knots: int = 40
-    max_knots: int = 350
-    horizon_step: int = 10
+    fuel_weight_gamma: float = positive(5.0, 1e9)
+    problem2_fuel_weight: float = positive(1.0, 1e9)
+    slack_penalty_psi: float = positive(750.0, 1e9)
+    max_thrust_N: float = positive(100.0, 1e6)
+    max_range_m: float = positive(100.0, 1e6)
+    max_speed_m_s: float = positive(1.5, 1e4)
+    max_los_rate_rad_s: float = positive(0.2, 2.0 * math.pi)
+    capture_position_tol_m: float = positive(0.35, 1e3)
+    capture_speed_tol_m_s: float = positive(0.03, 1e2)
+    docking_knots: int = count(5, 0, 5000)
+    alpha_min: float = bounded(1.3, 1.0, 100.0, low_open=True)
+    max_scp_iterations: int = count(15, 0, 1000)
+    dt_s: float = positive(1.0, 200.0)
+    min_knots: int = count(40, 2, 5000)
+    max_knots: int = count(350, 2, 5000)
+    horizon_step: int = count(10, 1, 5000)
     terminal_velocity_point: str = "chaser_capture_point"
     check_tumble_limit: bool = True
 
@@ -154,38 +170,35 @@ class SoftCaptureSettings:
         return grid
 
     def validate(self) -> None:
-        """Raises ValueError naming the first bad field."""
-        positive = (
-            "max_thrust_N",
-            "max_range_m",
-            "max_speed_m_s",
-            "max_los_rate_rad_s",
-            "capture_position_tol_m",
-            "capture_speed_tol_m_s",
-            "dt_s",
-            "slack_penalty_psi",
-            "fuel_weight_gamma",
-            "problem2_fuel_weight",
-        )
-        for name in positive:
+        """Raises ConfigError naming the first bad field: its declared bounds (check_bounds),
+        then the checks that need more than one field."""
+        check_bounds(self)
+        for name in (
+            "docking_knots",
+            "max_scp_iterations",
+            "min_knots",
+            "max_knots",
+            "horizon_step",
+        ):
             value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-                raise ValueError(f"{name}: must be a finite positive number, got {value!r}")
-        if not 0.0 < self.max_los_rate_rad_s * self.dt_s <= math.pi / 2:
-            raise ValueError("max_los_rate_rad_s: omega_max dt must lie in (0, pi/2]")
-        if not self.alpha_min > 1.0:
-            raise ValueError(f"alpha_min: must exceed 1, got {self.alpha_min}")
-        for name in ("docking_knots", "max_scp_iterations", "min_knots", "horizon_step"):
-            if int(getattr(self, name)) != getattr(self, name) or getattr(self, name) < 0:
-                raise ValueError(f"{name}: must be a non-negative integer")
-        if not 2 <= self.min_knots <= self.max_knots:
-            raise ValueError("min_knots, max_knots: need 2 <= min_knots <= max_knots")
-        if self.horizon_step < 1:
-            raise ValueError("horizon_step: must be >= 1")
+            if int(value) != value:
+                raise ConfigError(name, f"must be an integer, got {value!r}")
+        if not self.max_los_rate_rad_s * self.dt_s <= math.pi / 2:
+            raise ConfigError("max_los_rate_rad_s", "omega_max dt must lie in (0, pi/2]")
+        if not self.min_knots <= self.max_knots:
+            raise ConfigError("min_knots", "need 2 <= min_knots <= max_knots")
+        knots = sum(self.horizon_grid())
+        if knots > MAX_GRID_KNOTS:
+            raise ConfigError(
+                "horizon_step",
+                f"the horizon grid {self.min_knots}..{self.max_knots} by {self.horizon_step} "
+                f"holds {knots} knots, must be at most {MAX_GRID_KNOTS} (a larger step or a "
+                "smaller max_knots)",
+            )
         if self.terminal_velocity_point not in TERMINAL_VELOCITY_POINTS:
-            raise ValueError(
-                f"terminal_velocity_point: must be one of {TERMINAL_VELOCITY_POINTS}, "
-                f"got {self.terminal_velocity_point!r}"
+            raise ConfigError(
+                "terminal_velocity_point",
+                f"must be one of {TERMINAL_VELOCITY_POINTS}, got {self.terminal_velocity_point!r}",
             )
 
 
@@ -199,20 +212,22 @@ class SoftCaptureConfig(SoftCaptureSettings):
 
     Attributes:
         semi_major_axis_m: a, semi-major axis of the target's circular orbit [m]; n = sqrt(mu/a^3).
-        chaser_mass_kg: m_c, chaser mass [kg] (force / m = the CW input acceleration).
-        docking_half_angle_deg: theta_dock, half-angle of the docking cone (11) [deg].
+            At most R_earth + the scenario's MAX_ALTITUDE_M.
+        chaser_mass_kg: m_c, chaser mass [kg] (force / m = the CW input acceleration); at most
+            1e6 kg, past any spacecraft flown.
+        docking_half_angle_deg: theta_dock, half-angle of the docking cone (11) [deg], in (0, 90).
         p_CDc_C: D_c, chaser capture point from the chaser centre of mass, in C [m]; its
             direction is the capture axis that the pointing law turns toward the target.
         p_TDt_T: D_t, target capture point from the target centre of mass, in T [m]; its
-            direction is the docking-cone axis.
+            direction is the docking-cone axis. Each entry of both within 1 km.
         (the rest: SoftCaptureSettings)
     """
 
-    semi_major_axis_m: float = 7738e3
-    chaser_mass_kg: float = 1500.0
-    docking_half_angle_deg: float = 30.0
-    p_CDc_C: list[float] = field(default_factory=lambda: [0.0, 0.0, 2.7])
-    p_TDt_T: list[float] = field(default_factory=lambda: [0.0, 0.0, 2.7])
+    semi_major_axis_m: float = positive(7738e3, R_EARTH_M + 1.0e8)
+    chaser_mass_kg: float = positive(1500.0, 1e6)
+    docking_half_angle_deg: float = bounded(30.0, 0.0, 90.0, low_open=True, high_open=True)
+    p_CDc_C: list[float] = bounded([0.0, 0.0, 2.7], -1e3, 1e3)  # noqa: RUF009 (a field())
+    p_TDt_T: list[float] = bounded([0.0, 0.0, 2.7], -1e3, 1e3)  # noqa: RUF009
 
     @classmethod
     def from_settings(
@@ -270,17 +285,13 @@ class SoftCaptureConfig(SoftCaptureSettings):
         }
 
     def validate(self) -> None:
-        """Raises ValueError naming the first bad field (problem data, then settings)."""
-        for name in ("semi_major_axis_m", "chaser_mass_kg"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-                raise ValueError(f"{name}: must be a finite positive number, got {value!r}")
-        if not 0.0 < self.docking_half_angle_deg < 90.0:
-            raise ValueError("docking_half_angle_deg: must lie in (0, 90)")
+        """Raises ConfigError naming the first bad field: the capture points' shape, then
+        SoftCaptureSettings.validate (every field's bounds, problem data included, then the
+        checks that need more than one field)."""
         for name in ("p_CDc_C", "p_TDt_T"):
             vector = np.asarray(getattr(self, name), dtype=float)
             if vector.shape != (3,) or not np.all(np.isfinite(vector)) or not vector.any():
-                raise ValueError(f"{name}: must be 3 finite numbers, not all zero")
+                raise ConfigError(name, "must be 3 finite numbers, not all zero")
         super().validate()
 
 
