@@ -46,7 +46,7 @@ from machine import (
 )  # benchmarks/machine.py, beside this script
 
 from rpod.diagrams.controllers.planar_approach import campaign_rows, planner_config
-from rpod.diagrams.plots_planar import write_campaign_maps
+from rpod.diagrams.controllers.planar_approach.campaign_maps import write_campaign_maps
 from rpod.diagrams.simulate import simulate
 from rpod.planners.planar_approach import plan_approach
 from rpod.scenarios.campaign import CAMPAIGNS_DIR, apply_overrides

@@ -1,14 +1,16 @@
-"""Paper 003's figures (rpod.diagrams.plots_planar) from a synthetic log and synthetic campaign
-metrics: written when their keys are logged, absent (and no stale file left) without them."""
+"""Paper 003's figures (planar_approach.figures and campaign_maps) from a synthetic log and
+synthetic campaign metrics: written when their keys are logged, absent (and no stale file
+left) without them."""
 
 import math
 
 import numpy as np
 import pytest
 
+from rpod.diagrams.controllers.planar_approach.campaign_maps import write_campaign_maps
+from rpod.diagrams.controllers.planar_approach.figures import FIGURE_NAMES as PLANAR_FIGURE_NAMES
+from rpod.diagrams.controllers.planar_approach.figures import square_corners
 from rpod.diagrams.plots import FIGURE_NAMES, write_plots
-from rpod.diagrams.plots_planar import FIGURE_NAMES as PLANAR_FIGURE_NAMES
-from rpod.diagrams.plots_planar import square_corners, write_campaign_maps
 
 T_S = 20.0  # planned arrival of the synthetic log
 OMEGA = 0.1  # target spin [rad/s]
