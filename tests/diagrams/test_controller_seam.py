@@ -12,6 +12,8 @@ Free space (no gravity, the target fixed at the origin, L = I) makes the closed 
 import dataclasses
 import json
 import math
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -275,3 +277,60 @@ def test_load_warnings_are_said_at_load_once_and_kept_in_the_summary(tmp_path, c
     (tmp_path / "quiet").mkdir()
     _, summary, _ = _run(tmp_path / "quiet", "!WarnedAcceleration {a_L: [0.0, 0.001, 0.0]}")
     assert summary["warnings"] == []
+
+
+_DEMO_SHAPES = {"demo_level": None}
+
+
+class FigurePlugin(ConstantAccelerationPlugin):
+    """ConstantAcceleration with a run figure of its own key, through the seam's hooks (given
+    to write_plots directly, never registered)."""
+
+    log_shapes = _DEMO_SHAPES
+
+    def run_figures(self):
+        from matplotlib.figure import Figure  # only when drawing, as the hook asks
+
+        def draw(log, title):
+            level = log.get("demo_level")
+            if level is None:
+                return None
+            figure = Figure()
+            figure.add_subplot().plot(log.t, level)
+            return figure
+
+        return {"demo_level.png": draw}
+
+
+def test_a_plugins_run_figures_are_written_beside_the_generic_ones(tmp_path):
+    """write_plots draws a plug-in's run_figures() on its log_shapes: a key of the wrong shape
+    is not drawn (and its stale figure removed), a plug-in not given is not drawn."""
+    from rpod.diagrams.plots import FIGURE_NAMES, write_plots
+
+    plugin = FigurePlugin()
+    t = np.linspace(0.0, 10.0, 11)
+    log = {"t": t, "p_LC_L": np.column_stack([t, t, t]), "demo_level": np.sin(t)}
+    names = [p.name for p in write_plots(log, tmp_path, plugins=[plugin])]
+    assert names[-1] == "demo_level.png" and set(names[:-1]) <= set(FIGURE_NAMES)
+    log["demo_level"] = np.zeros((11, 2))  # not one value per sample: skipped
+    assert "demo_level.png" not in [p.name for p in write_plots(log, tmp_path, plugins=[plugin])]
+    assert not (tmp_path / "demo_level.png").exists()
+    log["demo_level"] = np.sin(t)
+    assert "demo_level.png" not in [p.name for p in write_plots(log, tmp_path / "x", plugins=[])]
+
+
+def test_loading_every_bundled_scenario_imports_no_matplotlib():
+    """The built-in plug-ins import their figures only inside run_figures()/campaign_figures():
+    loading a scenario (which registers them all) must not import matplotlib. In a subprocess,
+    so that no other test's import counts."""
+    code = (
+        "import sys\n"
+        "from rpod.scenarios.loader import bundled_scenarios, load_scenario\n"
+        "for name in bundled_scenarios():\n"
+        "    load_scenario(name)\n"
+        "print(sorted(m for m in sys.modules if m.split('.')[0] == 'matplotlib')[:5])\n"
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=300
+    )
+    assert result.stdout.strip() == "[]", result.stdout
