@@ -94,10 +94,8 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
     sensed_port = bundle.get_output_port()
     plugin = controller_seam.plugin_for(scenario.controller)
     wiring = plugin.add_to_diagram(builder, scenario, sensed_port) if plugin else None
-    if wiring is not None and wiring.actuation is not plugin.actuation_for(scenario.controller):
-        declared = plugin.actuation_for(scenario.controller)
-        raise ValueError(f"!{plugin.tag} declared {declared} but wired {wiring.actuation}")
-    ideal = wiring is not None and wiring.actuation is Actuation.IDEAL
+    actuation = plugin.actuation_for(scenario.controller) if wiring is not None else None
+    ideal = actuation is Actuation.IDEAL
     gimbaled = layout is not None and layout.gimbaled and not ideal
     # The truth holds a fixed bank itself; an ideal actuator or a gimbaled bank (its force
     # vectors clipped by ThrusterBank) hands it a body wrench and a mass flow instead.
@@ -172,21 +170,21 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
         if wiring is None:
             idle = builder.AddNamedSystem("idle", ConstantVectorSource(np.zeros(layout.count)))
             duty = idle.get_output_port()
-        elif wiring.actuation is Actuation.BODY_WRENCH:
+        elif actuation is Actuation.BODY_WRENCH:
             allocator = builder.AddNamedSystem("wrench_allocator", WrenchAllocator(layout))
             connect(wiring.command, allocator.GetInputPort("body_wrench_desired"))
             duty = allocator.GetOutputPort("thruster_duty")
-        elif wiring.actuation is Actuation.THRUSTER_COMMANDS:
+        elif actuation is Actuation.THRUSTER_COMMANDS:
             duty = wiring.command
         else:
-            raise NotImplementedError(f"actuation path {wiring.actuation} is not wired yet")
+            raise NotImplementedError(f"actuation path {actuation} is not wired yet")
         log("thruster_duty", duty)
         if scenario.thrusters.pwm:
             pwm = builder.AddNamedSystem(
                 "pwm",
                 PwmModulator(
                     layout.count,
-                    wiring.control_period_s if wiring is not None else 0.1,
+                    plugin.command_period_s(scenario.controller) if wiring is not None else 0.1,
                     scenario.thrusters.subdivisions,
                     scenario.thrusters.min_on_slots,
                     scheme=scenario.thrusters.modulation,

@@ -89,19 +89,18 @@ class IdealCommand:
 class ControllerWiring:
     """What a plug-in's add_to_diagram hands back to the builder.
 
+    The path the command drives and its period are the plug-in's to say once, from the config
+    (`actuation_for`, `command_period_s`), not repeated here.
+
     Attributes:
         system: the controller system (simulate passes its context to `results`).
-        actuation: the path its command port drives.
-        command: the command port (size 6, n or 3 by path).
-        control_period_s: its sample period (the PWM period on paths 1 and 2).
+        command: the command port (size 6, n or 3 by the plug-in's actuation path).
         logged: log key -> output port, logged at the scenario's log period.
         ideal: how the IDEAL path reads the command (required for Actuation.IDEAL).
     """
 
     system: typing.Any
-    actuation: Actuation
     command: typing.Any
-    control_period_s: float
     logged: dict = dataclasses.field(default_factory=dict)
     ideal: IdealCommand | None = None
 
@@ -174,6 +173,23 @@ class ControllerPlugin:
     def actuation_for(self, config) -> Actuation:
         """The path this config drives: `actuation` unless a plug-in's config chooses one."""
         return self.actuation
+
+    def command_period_s(self, config) -> float:
+        """The command's sample period [s]: the PWM period on paths 1 and 2 (each duty is held
+        for it), the controller's own period on the ideal path. The default is the config's
+        `control_period_s`; a plug-in whose config has none, or whose command comes at another
+        period (an adapter between the law and the thrusters), overrides this. Checked at load
+        (positive, finite, and bounding the run's work)."""
+        period = getattr(config, "control_period_s", None)
+        if period is None:
+            from rpod.models.config import ConfigError
+
+            raise ConfigError(
+                "controller",
+                f"!{self.tag} has no control_period_s: its plug-in must say its command's period "
+                "(ControllerPlugin.command_period_s)",
+            )
+        return float(period)
 
     def validate(self, config, scenario) -> None:
         """Raises ConfigError (rpod.models.config), its field relative to the scenario.

@@ -416,15 +416,15 @@ def _validate_work(scenario: Scenario) -> None:
     )
     _at_most(scenario.visualization.trail_max_points, MAX_SAMPLES, "visualization.trail_max_points")
     thrusters, controller = scenario.thrusters, scenario.controller
-    period = getattr(controller, "control_period_s", None)
-    if controller is not None and period:
+    if controller is not None:
+        period = controller_seam.plugin_for(controller).command_period_s(controller)
         slots = thrusters.subdivisions if thrusters.enabled and thrusters.pwm else 1
         field = "controller.control_period_s"
         _at_most(
             duration / period * slots,
             MAX_EVENTS,
             field,
-            "duration_s / control_period_s x PWM subdivisions must be",
+            "duration_s / the command period x PWM subdivisions must be",
         )
 
 
@@ -582,11 +582,11 @@ def validate_scenario(scenario: Scenario) -> None:
         plugin = controller_seam.plugin_for(controller)  # KeyError: a programming error
         _validate_actuation(plugin, scenario)
         plugin.validate(controller, scenario)
-        period = getattr(controller, "control_period_s", None)
+        period = plugin.command_period_s(controller)
         _require(
-            period is not None and math.isfinite(period) and period > 0,
+            math.isfinite(period) and period > 0,
             "controller.control_period_s",
-            f"must be positive, got {period}",
+            f"the command period must be positive, got {period}",
         )
 
     _positive(scenario.duration_s, "duration_s")

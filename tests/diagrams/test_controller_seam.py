@@ -29,6 +29,7 @@ from rpod.diagrams.controller_seam import (
     controller_plugins,
     register_controller,
 )
+from rpod.models.config import ConfigError
 from rpod.models.thrusters import STANDARD_GRAVITY_M_S2
 from rpod.scenarios import cli
 from rpod.systems.sensed import SENSED_SIZE
@@ -56,7 +57,7 @@ class ConstantAcceleration:
 
     def validate(self) -> None:
         if len(self.a_L) != 3:
-            raise ValueError("a_L: expected 3 numbers")
+            raise ConfigError("a_L", "expected 3 numbers")
 
 
 class ConstantAccelerationPlugin(ControllerPlugin):
@@ -70,9 +71,7 @@ class ConstantAccelerationPlugin(ControllerPlugin):
         builder.Connect(sensed, system.GetInputPort("sensed"))
         return ControllerWiring(
             system,
-            Actuation.IDEAL,
             system.GetOutputPort("command"),
-            config.control_period_s,
             {"commanded_acceleration_L": system.GetOutputPort("command")},
             ideal=IdealCommand("acceleration", "L", "box", config.limit_m_s2),
         )
@@ -102,10 +101,7 @@ class FixedLevelsPlugin(ControllerPlugin):
         config = scenario.controller
         system = builder.AddNamedSystem(self.system_name, _Constant(config.levels))
         builder.Connect(sensed, system.GetInputPort("sensed"))
-        return ControllerWiring(
-            system, Actuation.THRUSTER_COMMANDS, system.GetOutputPort("command"),
-            config.control_period_s,
-        )  # fmt: skip
+        return ControllerWiring(system, system.GetOutputPort("command"))
 
 
 @dataclasses.dataclass
@@ -123,9 +119,7 @@ class FixedForcesPlugin(FixedLevelsPlugin):
     def add_to_diagram(self, builder, scenario, sensed):
         system = builder.AddNamedSystem(self.system_name, _Constant(scenario.controller.forces_C))
         builder.Connect(sensed, system.GetInputPort("sensed"))
-        return ControllerWiring(
-            system, Actuation.THRUSTER_COMMANDS, system.GetOutputPort("command"), 0.1
-        )
+        return ControllerWiring(system, system.GetOutputPort("command"))
 
 
 @pytest.fixture(scope="module", autouse=True)

@@ -47,9 +47,7 @@ class ClaimsSuccessPlugin(ControllerPlugin):
     def add_to_diagram(self, builder, scenario, sensed):
         system = builder.AddNamedSystem(self.system_name, _Zero())
         builder.Connect(sensed, system.GetInputPort("sensed"))
-        return ControllerWiring(
-            system, Actuation.IDEAL, system.GetOutputPort("command"), 1.0, ideal=IdealCommand()
-        )
+        return ControllerWiring(system, system.GetOutputPort("command"), ideal=IdealCommand())
 
     def results(self, scenario, wiring, context, log):
         return ControllerResults(outcome=MissionOutcome(True, "the controller says success"))

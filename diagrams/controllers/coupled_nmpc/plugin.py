@@ -108,13 +108,11 @@ class CoupledNmpcPlugin(ControllerPlugin):
             STATUS_LOG_KEY: controller.GetOutputPort("nmpc_status"),
             "coupled_xi_T_m_s": controller.GetOutputPort("integral_state_T"),
         }
-        return ControllerWiring(
-            controller,
-            Actuation.THRUSTER_COMMANDS,
-            controller.GetOutputPort("thruster_forces_C"),
-            config.period_s(),
-            logged,
-        )
+        return ControllerWiring(controller, controller.GetOutputPort("thruster_forces_C"), logged)
+
+    def command_period_s(self, config) -> float:
+        """T_c: control_period_s, or T / N when it is 0 (config.period_s)."""
+        return config.period_s()
 
     def add_scene_extras(self, builder, meshcat, scenario, wiring, scene=None) -> None:
         """The LOS pyramid and the rock on T, the end effector on C, and each thruster's force

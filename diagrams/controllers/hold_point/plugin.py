@@ -8,7 +8,6 @@ path 1 (body wrench -> allocator -> PWM -> thrusters), the outputs it logs, and 
 import numpy as np
 
 from rpod.diagrams.controller_seam import (
-    Actuation,
     ControllerPlugin,
     ControllerResults,
     ControllerWiring,
@@ -43,9 +42,7 @@ class HoldPointPlugin(ControllerPlugin):
             name: controller.GetOutputPort(name)
             for name in ("body_wrench_desired", "hold_point_L", "reference_L")
         }
-        return ControllerWiring(
-            controller, Actuation.BODY_WRENCH, command, config.control_period_s, logged
-        )
+        return ControllerWiring(controller, command, logged)
 
     def results(self, scenario, wiring, context, log) -> ControllerResults:
         summary, outcome = hold_results(log)

@@ -136,9 +136,7 @@ class LosCorridorPlugin(ControllerPlugin):
         command = guidance.GetOutputPort("acceleration_command_L")
         if config.actuation == "ideal":
             ideal = IdealCommand("acceleration", "L", "box", config.a_max_m_s2)
-            return ControllerWiring(
-                guidance, Actuation.IDEAL, command, config.control_period_s, logged, ideal
-            )
+            return ControllerWiring(guidance, command, logged, ideal)
         adapter = builder.AddNamedSystem(
             "acceleration_to_wrench",
             AccelerationToWrench(
@@ -151,7 +149,12 @@ class LosCorridorPlugin(ControllerPlugin):
         builder.Connect(sensed, adapter.GetInputPort(SENSED_PORT))
         wrench = adapter.GetOutputPort("body_wrench_desired")
         logged["body_wrench_desired"] = wrench
-        return ControllerWiring(guidance, Actuation.BODY_WRENCH, wrench, THRUSTER_PERIOD_S, logged)
+        return ControllerWiring(guidance, wrench, logged)
+
+    def command_period_s(self, config) -> float:
+        """The guidance's period on the ideal path; through thrusters, the acceleration-to-
+        wrench adapter's (THRUSTER_PERIOD_S), which is the PWM period."""
+        return config.control_period_s if config.actuation == "ideal" else THRUSTER_PERIOD_S
 
     def add_scene_extras(self, builder, meshcat, scenario, wiring, scene=None) -> None:
         if scene is None:

@@ -20,7 +20,6 @@ import typing
 import numpy as np
 
 from rpod.diagrams.controller_seam import (
-    Actuation,
     ControllerPlugin,
     ControllerResults,
     ControllerWiring,
@@ -163,9 +162,7 @@ class PlanarApproachPlugin(ControllerPlugin):
         builder.Connect(sensed, tracker.GetInputPort(SENSED_PORT))
         return PlanarWiring(
             tracker,
-            Actuation.BODY_WRENCH,
             tracker.GetOutputPort("body_wrench_desired"),
-            scenario.controller.control_period_s,
             {key: tracker.GetOutputPort(port) for key, port in LOGGED.items()},
             run=run,
             sensed=sensed,

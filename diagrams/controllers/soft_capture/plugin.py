@@ -11,7 +11,6 @@ Does not own: the config (config.py), the problem data (problem.py), the planner
 import numpy as np
 
 from rpod.diagrams.controller_seam import (
-    Actuation,
     ControllerPlugin,
     ControllerResults,
     ControllerWiring,
@@ -80,9 +79,7 @@ class SoftCapturePlugin(ControllerPlugin):
         builder.Connect(sensed, controller.GetInputPort(SENSED_PORT))
         return ControllerWiring(
             controller,
-            Actuation.BODY_WRENCH,
             controller.GetOutputPort("body_wrench_desired"),
-            scenario.controller.control_period_s,
             {name: controller.GetOutputPort(name) for name in LOGGED},
         )
 
