@@ -10,6 +10,7 @@ which the plug-in imports only when drawing.
   problem.py        the planner's problem data derived from the scenario; the tracker's gains.
   reference.py      what is flown after and around the plan (co-rotating hold, face-aligned).
   planning.py       the plan at build time and the reference flown (`PlanarApproachRun`).
+  plan_file.py      what `rpod plan` writes of the plan (plan.npz, summary, a figure).
   plugin.py         `PlanarApproachPlugin` and `PlanarWiring`: checks, wiring, scene, hooks.
   metrics.py        the log arrays and summary.json's entries.
   mission.py        the mission's verdict and its line.

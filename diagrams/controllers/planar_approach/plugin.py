@@ -27,6 +27,7 @@ from rpod.diagrams.controller_seam import (
 from rpod.diagrams.controllers.planar_approach.config import PlanarApproach
 from rpod.diagrams.controllers.planar_approach.metrics import planar_log, planar_summary
 from rpod.diagrams.controllers.planar_approach.mission import outcome
+from rpod.diagrams.controllers.planar_approach.plan_file import plan_output
 from rpod.diagrams.controllers.planar_approach.planning import PlanarApproachRun, make_run
 from rpod.diagrams.controllers.planar_approach.problem import (
     PLANAR_TOLERANCE,
@@ -190,6 +191,11 @@ class PlanarApproachPlugin(ControllerPlugin):
             goal_L=run.config.goal_position,
             height_m=float(scenario.target.size_m[2]),
         )
+
+    @staticmethod
+    def make_plan(scenario, closed_loop: bool = False):
+        """`rpod plan`: the plan from the scenario's initial state (plan_file.plan_output)."""
+        return plan_output(scenario, closed_loop)
 
     def campaign_table(self, rows):
         """Paper 003's case studies or the modulation comparison (tables.campaign_rows)."""
