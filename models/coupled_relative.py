@@ -16,9 +16,7 @@ AutoDiffXd or symbolic.Expression, so that a planner gets exact derivatives of t
 Does not own: the optimal control problem (22), its transcription or solver (a planner builds
 them from these functions), the truth simulation (rpod.systems), or perturbations (the paper's
 f_p and tau_d are zero here: this is the prediction model); the gimbal pyramid (eq. 16), its
-block matrix and the force-to-wrench matrix (rpod.models.gimbal, whose
-`gimbal_constraint_matrix` is still reachable here for the planners that read it from this
-module); the cross product and its matrix (rpod.models.frames).
+block matrix and the force-to-wrench matrix (rpod.models.gimbal); the cross product and its matrix (rpod.models.frames).
 
 Frames and names (paper 001 -> rpod monogram). I: ECI (the paper's F_e); T: target body (F_t),
 origin at its centre of mass t; C: chaser body (F_c), origin at c; Pt: the target feature point
@@ -98,7 +96,6 @@ import pydrake.math
 from rpod.models.frames import cross, cross_rows, skew, skew_rows
 from rpod.models.gimbal import (
     force_to_wrench_matrix,
-    gimbal_constraint_matrix,  # noqa: F401  (planners read it as cr.gimbal_constraint_matrix)
     pyramid_polyhedron,
     wrench_from_forces,
 )

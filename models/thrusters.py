@@ -15,7 +15,7 @@ Owns the equations of the chaser's propulsion, as plain numpy functions and data
 
 Does not own: gimbaled thrusters (force vectors to the wrench, eqs. 11-12; the thruster frame
 and gimbal angles, eq. 13; the gimbal pyramid and the clip, eqs. 16-17), which live in
-`rpod.models.gimbal` (the names once defined here still resolve, see `__getattr__` at the end);
+`rpod.models.gimbal`;
 the cross product (`rpod.models.frames.cross_rows`); time: the Drake systems that apply these
 maps every step live in `rpod.systems.thruster_bank`, `rpod.systems.pwm` and
 `rpod.systems.allocator`.
@@ -773,32 +773,3 @@ def allocate_duty_reference(
     if r2 <= r1 + 1e-12 * scale and c @ u2 < c @ u1:
         return u2
     return u1
-
-
-# --------------------------------------------------------------------------------------------
-# Names that moved to rpod.models.gimbal.
-
-_MOVED_TO_GIMBAL = frozenset(
-    {
-        "GimbalLimits",
-        "clip_gimbaled_force",
-        "clip_gimbaled_forces",
-        "force_from_gimbal_angles",
-        "gimbal_polyhedron",
-        "thruster_frame_C",
-        "wrench_from_forces",
-    }
-)
-
-
-def __getattr__(name: str):
-    """The gimbal names once defined here, looked up in `rpod.models.gimbal` (their one home)
-    for callers not yet importing them from there; import them from rpod.models.gimbal.
-
-    Lazy (PEP 562) because rpod.models.gimbal imports this module's layouts.
-    """
-    if name in _MOVED_TO_GIMBAL:
-        from rpod.models import gimbal
-
-        return getattr(gimbal, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -91,7 +91,7 @@ from scipy.integrate import solve_ivp
 
 from rpod.models import coupled_relative as cr
 from rpod.models.config import ConfigError, bounded, check_bounds, count, positive
-from rpod.models.thrusters import gimbal_polyhedron
+from rpod.models.gimbal import gimbal_constraint_matrix, gimbal_polyhedron
 from rpod.planners import coupled_shooting as cs
 from rpod.planners.coupled_casadi import CasadiTranscription
 from rpod.planners.coupled_sqp import CoupledSqp, SqpSettings
@@ -391,7 +391,7 @@ class CoupledNmpc:
             prog.AddConstraint(self._defect_function(k), zeros, zeros, z, f"defect_{k}")
 
         # Eq. 16 on every thruster and interval: one sparse linear constraint.
-        A_g, b_g = cr.gimbal_constraint_matrix(self.params.layout)
+        A_g, b_g = gimbal_constraint_matrix(self.params.layout)
         A_all = np.kron(np.eye(N), A_g)
         prog.AddLinearConstraint(
             A_all, np.full(A_all.shape[0], -np.inf), np.tile(b_g, N), self.U.reshape(-1)
@@ -780,7 +780,7 @@ def check_plan(
     (rtol, atol), not RK4, (i) from each node over its interval (the multiple-shooting defects)
     and (ii) from x_0 through all intervals in one chain (the trajectory the inputs fly). The
     constraints are evaluated from their definitions: the gimbal pyramid per thruster from
-    `rpod.models.thrusters.gimbal_polyhedron` (not the NLP's block matrix), the magnitude by
+    `rpod.models.gimbal.gimbal_polyhedron` (not the NLP's block matrix), the magnitude by
     np.linalg.norm (not squared), the LOS rows with the plan's slacks.
 
     Returns a dict of worst values (excesses <= 0 mean satisfied):

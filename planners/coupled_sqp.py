@@ -45,6 +45,7 @@ import scipy.sparse as sp
 
 from rpod.models import coupled_relative as cr
 from rpod.models.config import bounded, check_bounds, count, positive
+from rpod.models.gimbal import gimbal_constraint_matrix
 from rpod.planners import coupled_shooting as cs
 
 _logger = logging.getLogger(__name__)
@@ -157,7 +158,7 @@ class CoupledSqp:
         layout = params.layout
         self.f_max = layout.max_thrusts_N
         self.directions = layout.directions_C
-        self.A_g, self.b_g = cr.gimbal_constraint_matrix(layout)
+        self.A_g, self.b_g = gimbal_constraint_matrix(layout)
         M_tau = cr._force_to_wrench_matrix(params)[:3]
         self.H_u = 2.0 * self.h * (np.asarray(weights.W_f) + M_tau.T @ weights.W_tau @ M_tau)
         self.Q_y = np.zeros((9, 9))

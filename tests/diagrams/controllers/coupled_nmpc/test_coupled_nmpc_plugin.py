@@ -2,7 +2,7 @@
 
 Independent references: the bundled scenario's start against
 `coupled_relative.sec_iv_initial_state` (the paper's printed p(0) is tested there); the applied
-forces against each thruster's gimbal pyramid from `rpod.models.thrusters.gimbal_polyhedron`
+forces against each thruster's gimbal pyramid from `rpod.models.gimbal.gimbal_polyhedron`
 and np.linalg.norm, and their resultant against the bank's own logged `body_wrench`; the LOS
 margin against the angle of p_PtPc_T from the rock's radial axis. The planner is replaced by one
 that asks for forces outside every limit (so the bank must clip), or is the real IPOPT cut short
