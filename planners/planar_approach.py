@@ -52,10 +52,6 @@ from pydrake.trajectories import PiecewisePolynomial
 from rpod.models import planar_approach as pa
 from rpod.models.config import ConfigError, bounded, check_bounds, count, positive
 from rpod.planners import planar_approach_problem as problem
-
-# Transitional: rpod.diagrams.controllers.planar_approach still imports check_plan from here
-# (that file is being moved); nothing here uses it. Delete once it imports planar_approach_check.
-from rpod.planners.planar_approach_check import check_plan  # noqa: F401
 from rpod.planners.planar_approach_nlp import solve_nlp
 from rpod.planners.planar_approach_problem import PlanarPlanStatus
 from rpod.planners.planar_approach_scp import solve_scp
