@@ -9,7 +9,15 @@ lists, strings, numbers, booleans), and the rules that make that safe and unsurp
 - A key given twice in one mapping is an error naming both lines (PyYAML lets the last win).
 - Nesting deeper than MAX_DEPTH and documents that expand (through aliases) to more than
   MAX_VALUES values are errors: a 1 KB alias bomb expands to billions of values, and every
-  consumer (the schema check, an error message, a JSON dump) would walk them all.
+  consumer (the schema check, an error message, a JSON dump) would walk them all. The depth is
+  that of the data the aliases resolve to (`c: &c [*b]` is one deeper than `b`), so a chain of
+  aliases cannot build data nested deeper than MAX_DEPTH either.
+- An integer beyond the float range (about 1.8e308, i.e. more than 309 digits) is an error: no
+  rpod field can hold it (a float field would overflow, no count is that large), and converting
+  thousands of digits is slow (Python refuses more than 4300).
+- Text that is not YAML text (a NUL or another control character: a binary file) is an error
+  naming the line and column of the first such character.
+- Error messages quote at most QUOTE_CHARS characters of what the file holds.
 - Only the safe constructors: no Python tags (`!!python/object` is an error, never executed).
   A local tag on a mapping (`controller: !HoldPoint {...}`, the typed unions of Drake's
   yaml_load_typed) becomes a `TaggedMapping`: a dict that remembers its tag. `dump_yaml`
@@ -18,11 +26,14 @@ Does not own: what the data means (loader.py, campaign.py).
 """
 
 import re
+import sys
 
 import yaml
 
 MAX_DEPTH = 32  # the scenario schema nests 5 deep; campaigns add 3
 MAX_VALUES = 2_000_000  # scalars + containers after alias expansion (a 1,000,000-value grid fits)
+MAX_INT_DIGITS = 309  # the float range ends at 1.8e308: every larger integer is refused
+QUOTE_CHARS = 60  # longest quotation of the file's text in an error message
 
 _FLOAT_TAG = "tag:yaml.org,2002:float"
 _INT_TAG = "tag:yaml.org,2002:int"
@@ -63,26 +74,50 @@ _Loader.add_implicit_resolver(_INT_TAG, _INT_12, list("-+0123456789"))
 _Loader.add_implicit_resolver(_FLOAT_TAG, _FLOAT_12, list("-+0123456789."))
 
 
+def _cut(text: str, limit: int = QUOTE_CHARS) -> str:
+    """text on one line, cut to `limit` characters ("..." marks the cut)."""
+    text = " ".join(str(text).split())
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
 def _construct_int(loader, node) -> int:
     text = loader.construct_scalar(node)
     sign, digits = (-1, text[1:]) if text[:1] == "-" else (1, text.lstrip("+"))
-    if digits.startswith(("0o", "0x")):
-        return sign * int(digits[2:], 8 if digits[1] == "o" else 16)
     try:
-        return sign * int(digits, 10)  # base 10: "010" is ten, as in YAML 1.2
-    except ValueError:  # an explicit !!int tag on something that is not one
+        if digits.startswith(("0o", "0x")):
+            value = int(digits[2:], 8 if digits[1] == "o" else 16)
+        elif not (digits.isascii() and digits.isdigit()):  # an explicit !!int tag on a non-int
+            raise ValueError(text)
+        elif len(digits) > MAX_INT_DIGITS + 10:  # surely too large: not even converted
+            value = None
+        else:
+            value = int(digits, 10)  # base 10: "010" is ten, as in YAML 1.2
+    except ValueError:  # not an integer (an explicit !!int tag on something else)
         raise yaml.constructor.ConstructorError(
-            None, None, f"not an integer: {text!r}", node.start_mark
+            None, None, f"not an integer: {_cut(repr(text))}", node.start_mark
         ) from None
+    if value is None or value > _LARGEST_INT:
+        raise yaml.constructor.ConstructorError(
+            None,
+            None,
+            f"integer too large ({len(text):,} characters: {_cut(text, 24)}); rpod reads "
+            f"numbers up to about 1.8e308",
+            node.start_mark,
+        )
+    return sign * value
 
 
+_LARGEST_INT = int(sys.float_info.max)
 _Loader.add_constructor(_INT_TAG, _construct_int)
 
 
 def _construct_tagged(loader, tag_suffix: str, node):
     if not isinstance(node, yaml.MappingNode) or not tag_suffix or "!" in tag_suffix:
         raise yaml.constructor.ConstructorError(
-            None, None, f"the tag !{tag_suffix} is allowed on a mapping only", node.start_mark
+            None,
+            None,
+            f"the tag {_cut('!' + tag_suffix)} is allowed on a mapping only",
+            node.start_mark,
         )
     return TaggedMapping(tag_suffix, loader.construct_mapping(node, deep=True))
 
@@ -118,9 +153,13 @@ def _check_node_graph(root) -> None:
     """YamlError on duplicate keys, nesting deeper than MAX_DEPTH, or more than MAX_VALUES.
 
     Iterative, and each node is visited once (aliases share nodes), so an alias bomb costs
-    its size in the file, not its expanded size.
+    its size in the file, not its expanded size. The depth checked is that of the resolved
+    data: a node's height (the levels of data at and below it, through aliases) is computed
+    once, and a node first met shallow and later through an alias deeper down counts at the
+    deeper place (`c: &c [[[*b]]]` is as deep as b's data plus three).
     """
     expanded = {}  # id(node) -> values below and including it, once computed
+    height = {}  # id(node) -> levels of data at and below it, once computed
     stack = [(root, 1, False)]
     while stack:
         node, depth, children_done = stack.pop()
@@ -146,9 +185,16 @@ def _check_node_graph(root) -> None:
             children = list(node.value)
         else:
             expanded[id(node)] = 1
+            height[id(node)] = 1
             continue
         if children_done:
             expanded[id(node)] = 1 + sum(expanded[id(child)] for child in children)
+            height[id(node)] = 1 + max((height[id(child)] for child in children), default=0)
+            if depth - 1 + height[id(node)] > MAX_DEPTH:
+                raise YamlError(
+                    f"YAML nested deeper than {MAX_DEPTH} levels at {_where(node.start_mark)} "
+                    f"(its data, through aliases, is {height[id(node)]} levels deep here)"
+                )
             if expanded[id(node)] > MAX_VALUES:
                 raise YamlError(
                     f"YAML expands to more than {MAX_VALUES:,} values at {_where(node.start_mark)}"
@@ -159,21 +205,37 @@ def _check_node_graph(root) -> None:
         stack.extend((child, depth + 1, False) for child in children if id(child) not in expanded)
 
 
+def _position(text: str, index: int) -> str:
+    """'line L, column C' of a character index into text."""
+    line = text.count("\n", 0, index) + 1
+    column = index - (text.rfind("\n", 0, index) + 1) + 1
+    return f"line {line}, column {column}"
+
+
 def parse_yaml(text: str):
     """Plain data from YAML text (None for an empty document); YamlError saying where and why."""
-    loader = _Loader(text)
+    loader = None
     try:
+        loader = _Loader(text)  # PyYAML's reader refuses NUL and other control characters here
         node = loader.get_single_node()
         if node is None:
             return None
         _check_node_graph(node)
         return loader.construct_document(node)
+    except yaml.reader.ReaderError as error:  # before any parsing: not text
+        where = _position(text, error.position) if isinstance(text, str) else "its start"
+        raise YamlError(
+            f"not YAML text: character #x{error.character:02x} at {where} is not allowed in "
+            "YAML (a binary file?)"
+        ) from None
     except yaml.YAMLError as error:
         mark = getattr(error, "problem_mark", None)
         where = f" at {_where(mark)}" if mark else ""
         problem = getattr(error, "problem", None) or str(error).splitlines()[0]
-        raise YamlError(f"YAML syntax error{where}: {problem}") from None
+        kind = "value" if isinstance(error, yaml.constructor.ConstructorError) else "syntax"
+        raise YamlError(f"YAML {kind} error{where}: {_cut(problem, 2 * QUOTE_CHARS)}") from None
     except RecursionError:  # PyYAML's composer recurses: nesting far beyond MAX_DEPTH
         raise YamlError(f"YAML nested deeper than {MAX_DEPTH} levels") from None
     finally:
-        loader.dispose()
+        if loader is not None:
+            loader.dispose()

@@ -33,6 +33,14 @@ BAD_FILES = [
     ("huge_bad_value", "chaser:\n  mass_kg: '" + "x" * 100000 + "'\n", "chaser.mass_kg"),
     ("huge_bad_list", "chaser:\n  mass_kg: [" + "1.0, " * 50000 + "1.0]\n", "chaser.mass_kg"),
     ("python_tag", "chaser: !!python/object/apply:os.system ['true']\n", "constructor"),
+    ("nul_byte", "duration_s: 10.0\x00\n", "not YAML text: character #x00 at line 1"),
+    (
+        "deep_through_aliases",  # r: *p meets p's data shallow first, q 20 levels deeper
+        "p: &p " + "[" * 15 + "1" + "]" * 15 + "\nq: " + "[" * 20 + "*p" + "]" * 20 + "\nr: *p\n",
+        "nested deeper",
+    ),
+    ("huge_integer", "chaser:\n  mass_kg: " + "9" * 4000 + "\n", "integer too large"),
+    ("integer_past_float", "chaser:\n  mass_kg: " + "9" * 401 + "\n", "integer too large"),
 ]
 
 

@@ -4,8 +4,8 @@ files alike."""
 
 import pytest
 
-from rpod.scenarios.campaign import parse_campaign
-from rpod.scenarios.loader import ScenarioFileError, parse_scenario
+from rpod.scenarios.campaign import load_campaign, parse_campaign
+from rpod.scenarios.loader import ScenarioFileError, load_scenario, parse_scenario
 from rpod.scenarios.yaml_reader import MAX_DEPTH, MAX_VALUES, YamlError, parse_yaml
 
 # Every YAML 1.2 float form a person writes, and what it means. PyYAML's YAML 1.1 resolver
@@ -134,3 +134,97 @@ def test_python_tags_are_never_constructed(tmp_path):
 def test_empty_and_comment_only_documents_are_none():
     assert parse_yaml("") is None
     assert parse_yaml("# only a comment\n\n") is None
+
+
+@pytest.mark.parametrize("character", ["\x00", "\x07", "\x7f"])
+def test_a_control_character_is_an_error_naming_line_and_column(character):
+    with pytest.raises(YamlError, match=r"^not YAML text: .* at line 2, column 13 .*binary file"):
+        parse_yaml(f"a: 1\nduration_s: {character}10.0\n")
+
+
+def test_a_nul_byte_in_a_scenario_or_campaign_file_is_one_line_naming_the_file(tmp_path):
+    scenario = tmp_path / "nul.yaml"
+    scenario.write_bytes(b"duration_s: 10.0\x00\n")
+    with pytest.raises(ScenarioFileError) as raised:
+        load_scenario(str(scenario))
+    assert str(raised.value).startswith(f"{scenario}: not YAML text: character #x00 at line 1")
+    assert "\n" not in str(raised.value)
+    campaign = tmp_path / "nul_campaign.yaml"
+    campaign.write_bytes(b"base: coast\x00\ngrid: {duration_s: [10.0]}\n")
+    with pytest.raises(ScenarioFileError) as raised:
+        load_campaign(str(campaign))
+    assert str(raised.value).startswith(f"{campaign}: not YAML text: character #x00 at line 1")
+    assert "\n" not in str(raised.value)
+
+
+def _alias_chain(levels: int, copies: int = 1) -> str:
+    """l0 holds a number, each further level `copies` aliases of the one before: `levels` lists
+    deep through aliases, while no list of the text holds another one."""
+    lines = ["l0: &l0 [1]"]
+    lines += [f"l{i}: &l{i} [" + ", ".join([f"*l{i - 1}"] * copies) + "]" for i in range(1, levels)]
+    return "\n".join(lines) + "\n"
+
+
+def _depth(value) -> int:
+    """Levels of data: a list is one more than its deepest item, a number one."""
+    return 1 + max(map(_depth, value), default=0) if isinstance(value, list) else 1
+
+
+def test_a_chain_of_aliases_may_not_resolve_deeper_than_the_limit():
+    # The mapping is the first level, l29 .. l0 thirty more, the number the last.
+    data = parse_yaml(_alias_chain(MAX_DEPTH - 2))
+    assert 1 + _depth(data[f"l{MAX_DEPTH - 3}"]) == MAX_DEPTH
+    with pytest.raises(YamlError, match="nested deeper"):
+        parse_yaml(_alias_chain(MAX_DEPTH - 1))
+    # Each level twice the one before (a: &a [1]; b: &b [*a, *a]; ...): refused as well, by
+    # its depth or by its size, without expanding it.
+    with pytest.raises(YamlError, match="nested deeper|more than"):
+        parse_yaml(_alias_chain(MAX_DEPTH + 8, copies=2))
+
+
+def test_data_met_shallow_first_and_then_deeper_through_an_alias_is_refused():
+    # `r: *p` puts p's data at depth 2 first (the last key is checked first); q reaches the same
+    # data 20 levels further down: 1 + 20 + 15 levels in all.
+    text = "p: &p " + "[" * 15 + "1" + "]" * 15 + "\nq: " + "[" * 20 + "*p" + "]" * 20 + "\nr: *p\n"
+    with pytest.raises(YamlError, match=r"nested deeper than 32 levels at line 2"):
+        parse_yaml(text)
+
+
+@pytest.mark.parametrize("digits", [310, 401, 4000, 5000])
+def test_an_integer_beyond_the_float_range_is_refused_and_not_echoed(digits):
+    for sign in ("", "-"):
+        with pytest.raises(YamlError) as raised:
+            parse_yaml(f"x: {sign}{'9' * digits}\n")
+        message = str(raised.value)
+        assert message.startswith("YAML value error at line 1, column 4: integer too large")
+        assert len(message) < 200, message
+
+
+def test_the_largest_integers_that_fit_a_float_are_read():
+    assert parse_yaml(f"x: {'9' * 308}\n")["x"] == int("9" * 308)
+    assert parse_yaml("x: 0x" + "f" * 255 + "\n")["x"] == 16**255 - 1
+
+
+def test_a_401_digit_integer_for_a_float_field_is_one_line_naming_the_file(tmp_path):
+    scenario = tmp_path / "big.yaml"
+    scenario.write_text(f"chaser:\n  mass_kg: {'9' * 401}\n")
+    with pytest.raises(ScenarioFileError) as raised:
+        load_scenario(str(scenario))
+    message = str(raised.value)
+    assert message.startswith(f"{scenario}: YAML value error at line 2, column 12: integer too")
+    assert len(message) < 250 and "9" * 30 not in message
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "x: !!int " + "y" * 4000 + "\n",
+        "x: !" + "t" * 4000 + " [1]\n",
+        "x: !!" + "t" * 4000 + " [1]\n",
+    ],
+    ids=["not_an_int", "local_tag_on_a_list", "unknown_tag"],
+)
+def test_what_the_file_holds_is_quoted_cut_in_errors(text):
+    with pytest.raises(YamlError) as raised:
+        parse_yaml(text)
+    assert len(str(raised.value)) < 250, str(raised.value)
