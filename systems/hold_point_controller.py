@@ -34,6 +34,7 @@ from pydrake.common.value import Value
 from pydrake.math import RotationMatrix
 from pydrake.systems.framework import LeafSystem
 
+from rpod.models.config import ConfigError, bounded, check_bounds, positive
 from rpod.models.cw import cw_acceleration
 from rpod.models.docking import DockingGeometry
 from rpod.models.frames import rotation_from_wxyz
@@ -57,40 +58,34 @@ class HoldPointControllerConfig:
             the docking axis; outside, it moves around the target at the chaser's range.
         max_reference_step_deg: how far ahead of the chaser's line of sight the reference may be.
         capture_axis_C: unit capture axis in the chaser body frame (points at the target).
+
+    Bounds (rpod.models.config, checked by `validate()`): the period in (0, 300] s (the
+    scenario bounds the samples of a run); the hold distance within the scenario's MAX_RANGE_M
+    (1000 km; 0 is the port itself); bandwidths in (0, 10] rad/s and damping ratios in (0, 10];
+    the speed limit up to the scenario's MAX_RELATIVE_SPEED_M_S; the gate and the reference step
+    in (0, 180] deg (an angle between two directions); the capture axis's components within
+    1e3 (it is normalised).
     """
 
-    control_period_s: float = 0.1
-    hold_distance_m: float = 10.0
-    translation_bandwidth_rad_s: float = 0.15
-    translation_damping: float = 1.0
-    max_speed_m_s: float = 0.5
-    attitude_bandwidth_rad_s: float = 0.5
-    attitude_damping: float = 1.0
-    descent_gate_deg: float = 10.0
-    max_reference_step_deg: float = 20.0
-    capture_axis_C: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 1.0])
+    control_period_s: float = positive(0.1, 300.0)
+    hold_distance_m: float = bounded(10.0, 0.0, 1e6)
+    translation_bandwidth_rad_s: float = positive(0.15, 10.0)
+    translation_damping: float = positive(1.0, 10.0)
+    max_speed_m_s: float = positive(0.5, 1e4)
+    attitude_bandwidth_rad_s: float = positive(0.5, 10.0)
+    attitude_damping: float = positive(1.0, 10.0)
+    descent_gate_deg: float = positive(10.0, 180.0)
+    max_reference_step_deg: float = positive(20.0, 180.0)
+    capture_axis_C: list[float] = bounded([0.0, 0.0, 1.0], -1e3, 1e3)  # noqa: RUF009 (a field())
 
     def validate(self) -> None:
-        """Raises ValueError('field: message') naming the first bad field."""
-        for name in (
-            "control_period_s",
-            "translation_bandwidth_rad_s",
-            "translation_damping",
-            "max_speed_m_s",
-            "attitude_bandwidth_rad_s",
-            "attitude_damping",
-            "descent_gate_deg",
-            "max_reference_step_deg",
-        ):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0):
-                raise ValueError(f"{name}: must be positive, got {value}")
-        if not (math.isfinite(self.hold_distance_m) and self.hold_distance_m >= 0):
-            raise ValueError(f"hold_distance_m: must not be negative, got {self.hold_distance_m}")
+        """Raises ConfigError naming the first bad field: its declared bounds (check_bounds),
+        then the capture axis's shape."""
+        check_bounds(self)
         axis = np.asarray(self.capture_axis_C, dtype=float)
-        if axis.shape != (3,) or not np.all(np.isfinite(axis)) or np.linalg.norm(axis) < 1e-12:
-            raise ValueError(
-                f"capture_axis_C: expected a non-zero 3-vector, got {self.capture_axis_C}"
+        if axis.shape != (3,) or np.linalg.norm(axis) < 1e-12:
+            raise ConfigError(
+                "capture_axis_C", f"expected a non-zero 3-vector, got {self.capture_axis_C}"
             )
 
 

@@ -58,6 +58,7 @@ import numpy as np
 from pydrake.common.value import Value
 from pydrake.systems.framework import EventStatus, LeafSystem
 
+from rpod.models.config import ConfigError, bounded, check_bounds, count, positive
 from rpod.models.cw import cw_acceleration
 from rpod.models.frames import rotation_from_wxyz
 from rpod.models.los_corridor import VIOLATION_TOLERANCE_M, LosCorridor, sync_range_m
@@ -119,26 +120,37 @@ class LosGuidanceConfig:
         substeps: RK4 steps per control step of the online model.
         mpc: horizon, weights and tolerances of eq. 11 (its a_max_m_s2 is a_max_m_s2 above:
             leave it out).
+
+    Bounds (rpod.models.config, checked by `validate()`): the control step in (0, 300] s (the
+    scenario bounds the samples of a run); a_max up to 1000 m/s^2 (100 g, the MPC's own bound);
+    lengths along the axis (hold point, floor) within the scenario's MAX_RANGE_M, the hold
+    tolerance within 1 km; speeds up to the scenario's MAX_RELATIVE_SPEED_M_S, the hold's up to
+    100 m/s; the bandwidth in (0, 10] rad/s, the damping ratio in (0, 10]; the lead up to 1e9 s
+    (1e9: in effect H itself, the paper's reference, los_monte_carlo_paper.yaml); at most 2000
+    fallback steps (the longest plan: mpc.horizon's bound); the half-angle in (0, 90) deg; 3 to
+    64 faces (a corridor row per face at every predicted step, and a logged column each:
+    measured at 40 steps, a QP takes 0.03 s at 8 faces, 0.08 s at 64, 1.5 s at 360); 1 to 100
+    RK4 substeps per step.
     """
 
-    control_period_s: float = 1.0
-    a_max_m_s2: float = 0.10
-    hold_distance_m: float = 10.0
-    v_max_m_s: float = 1.0
-    bandwidth_rad_s: float = 0.2
-    damping: float = 1.0
-    hold_tolerance_m: float = 1.0
-    hold_speed_m_s: float = 0.05
-    reference_lead_s: float = 10.0
-    fallback_plan_steps: int = 5
+    control_period_s: float = positive(1.0, 300.0)
+    a_max_m_s2: float = positive(0.10, 1e3)
+    hold_distance_m: float = positive(10.0, 1e6)
+    v_max_m_s: float = positive(1.0, 1e4)
+    bandwidth_rad_s: float = positive(0.2, 10.0)
+    damping: float = positive(1.0, 10.0)
+    hold_tolerance_m: float = positive(1.0, 1e3)
+    hold_speed_m_s: float = positive(0.05, 1e2)
+    reference_lead_s: float = positive(10.0, 1e9)
+    fallback_plan_steps: int = count(5, 0, 2000)
     stop_at_violation: bool = False
-    half_angle_deg: float = 30.0
-    faces: int = 8
-    floor_m: float = 1.0
+    half_angle_deg: float = bounded(30.0, 0.0, 90.0, low_open=True, high_open=True)
+    faces: int = count(8, 3, 64)
+    floor_m: float = bounded(1.0, 0.0, 1e6)
     filter: bool = True
     prediction: str = "online"
     time_varying_model: bool = False
-    substeps: int = 2
+    substeps: int = count(2, 1, 100)
     mpc: LosMpcSettings = dataclasses.field(default_factory=LosMpcSettings)
 
     def corridor(self) -> LosCorridor:
@@ -150,48 +162,29 @@ class LosGuidanceConfig:
         return dataclasses.replace(self.mpc, a_max_m_s2=self.a_max_m_s2)
 
     def validate(self) -> None:
-        """Raises ValueError('field: message') naming the first bad field."""
-        for name in (
-            "control_period_s",
-            "a_max_m_s2",
-            "v_max_m_s",
-            "bandwidth_rad_s",
-            "damping",
-            "hold_tolerance_m",
-            "hold_speed_m_s",
-            "reference_lead_s",
-        ):
+        """Raises ConfigError naming the first bad field: its declared bounds (check_bounds,
+        `mpc.<field>` included), then the checks that need more than one field."""
+        check_bounds(self)
+        for name in ("faces", "fallback_plan_steps", "substeps"):
             value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0):
-                raise ValueError(f"{name}: must be positive, got {value}")
-        if not 0.0 < self.half_angle_deg < 90.0:
-            raise ValueError(f"half_angle_deg: must be in (0, 90), got {self.half_angle_deg}")
-        if int(self.faces) != self.faces or self.faces < 3:
-            raise ValueError(f"faces: must be an integer >= 3, got {self.faces}")
-        if not (math.isfinite(self.floor_m) and self.floor_m >= 0.0):
-            raise ValueError(f"floor_m: must not be negative, got {self.floor_m}")
-        if not (math.isfinite(self.hold_distance_m) and self.hold_distance_m > self.floor_m):
-            raise ValueError(
-                f"hold_distance_m: must be beyond the floor ({self.floor_m} m), "
-                f"got {self.hold_distance_m}"
+            if int(value) != value:
+                raise ConfigError(name, f"must be an integer, got {value}")
+        if not self.hold_distance_m > self.floor_m:
+            raise ConfigError(
+                "hold_distance_m",
+                f"must be beyond the floor ({self.floor_m} m), got {self.hold_distance_m}",
             )
         if self.prediction not in PREDICTIONS:
-            raise ValueError(f"prediction: must be one of {PREDICTIONS}, got {self.prediction!r}")
-        if int(self.fallback_plan_steps) != self.fallback_plan_steps or not (
-            0 <= self.fallback_plan_steps
-        ):
-            raise ValueError(
-                f"fallback_plan_steps: must be an integer >= 0, got {self.fallback_plan_steps}"
+            raise ConfigError(
+                "prediction", f"must be one of {PREDICTIONS}, got {self.prediction!r}"
             )
-        if int(self.substeps) != self.substeps or not 1 <= self.substeps <= 100:
-            raise ValueError(f"substeps: must be an integer in [1, 100], got {self.substeps}")
         default_bound = LosMpcSettings().a_max_m_s2
         if self.mpc.a_max_m_s2 not in (default_bound, self.a_max_m_s2):
-            raise ValueError("mpc.a_max_m_s2: the bound is a_max_m_s2; leave this one out")
+            raise ConfigError("mpc.a_max_m_s2", "the bound is a_max_m_s2; leave this one out")
         try:
             self.mpc_settings().validate()
-        except ValueError as error:
-            raise ValueError(f"mpc.{error}") from None
+        except ConfigError as error:
+            raise error.under("mpc") from None
 
 
 @dataclasses.dataclass(frozen=True)

@@ -107,6 +107,7 @@ from pydrake.common.value import AbstractValue, Value
 from pydrake.math import RotationMatrix
 from pydrake.systems.framework import LeafSystem
 
+from rpod.models.config import ConfigError, bounded, check_bounds, count, positive
 from rpod.models.cw import cw_acceleration, cw_state_transition, cw_zoh_input
 from rpod.models.docking import capture_reach_T
 from rpod.models.frames import rotation_from_wxyz
@@ -170,19 +171,25 @@ class SoftCaptureControllerConfig:
         attitude_feedforward: add the pointing reference's angular acceleration (from the
             reference's relative acceleration) to the attitude law (module docstring); False
             gives the PD with gyroscopic compensation alone.
+
+    Bounds (rpod.models.config, checked by `validate()`): the period in (0, 200] s (it divides
+    planner.dt_s, at most 200 s); the tolerance fraction in (0, 1]; the margin in [0, 100]
+    (hulls at most 101 times their size, as the planner's alpha_min); the replanning and retry
+    periods (0: never) up to the scenario's MAX_DURATION_S; min_replan_knots in [2, 5000] (the
+    planner's longest horizon); bandwidths in (0, 10] rad/s and damping ratios in (0, 10].
     """
 
     planner: SoftCaptureConfig = dataclasses.field(default_factory=SoftCaptureConfig)
-    control_period_s: float = 0.1
-    plan_tolerance_fraction: float = 0.5
-    collision_margin: float = 0.1
-    replan_period_s: float = 10.0
-    min_replan_knots: int = 10
-    retry_period_s: float = 0.0
-    translation_bandwidth_rad_s: float = 0.4
-    translation_damping: float = 1.0
-    attitude_bandwidth_rad_s: float = 0.8
-    attitude_damping: float = 1.0
+    control_period_s: float = positive(0.1, 200.0)
+    plan_tolerance_fraction: float = positive(0.5, 1.0)
+    collision_margin: float = bounded(0.1, 0.0, 100.0)
+    replan_period_s: float = bounded(10.0, 0.0, 1e6)
+    min_replan_knots: int = count(10, 2, 5000)
+    retry_period_s: float = bounded(0.0, 0.0, 1e6)
+    translation_bandwidth_rad_s: float = positive(0.4, 10.0)
+    translation_damping: float = positive(1.0, 10.0)
+    attitude_bandwidth_rad_s: float = positive(0.8, 10.0)
+    attitude_damping: float = positive(1.0, 10.0)
     attitude_feedforward: bool = True
 
     def planning_config(self) -> SoftCaptureConfig:
@@ -203,58 +210,45 @@ class SoftCaptureControllerConfig:
         )
 
     def validate(self) -> None:
-        """Raises ValueError naming the first bad field (the planner's as 'planner.<field>')."""
+        """Raises ConfigError naming the first bad field (the planner's as 'planner.<field>'):
+        the declared bounds (check_bounds, the planner's included), the planner's own checks,
+        then the checks that need more than one field."""
+        check_bounds(self)
         try:
             self.planner.validate()
-        except ValueError as error:
-            raise ValueError(f"planner.{error}") from None
-        for name in (
-            "control_period_s",
-            "translation_bandwidth_rad_s",
-            "translation_damping",
-            "attitude_bandwidth_rad_s",
-            "attitude_damping",
-        ):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0):
-                raise ValueError(f"{name}: must be a finite positive number, got {value!r}")
+        except ConfigError as error:
+            raise error.under("planner") from None
         if self.attitude_feedforward not in (True, False):
-            raise ValueError(
-                f"attitude_feedforward: must be true or false, got {self.attitude_feedforward!r}"
+            raise ConfigError(
+                "attitude_feedforward", f"must be true or false, got {self.attitude_feedforward!r}"
             )
-        if not 0.0 < self.plan_tolerance_fraction <= 1.0:
-            raise ValueError(
-                f"plan_tolerance_fraction: must lie in (0, 1], got {self.plan_tolerance_fraction}"
-            )
-        if not (math.isfinite(self.collision_margin) and self.collision_margin >= 0.0):
-            raise ValueError(f"collision_margin: must be >= 0, got {self.collision_margin}")
         dt = self.planner.dt_s
         if not _is_multiple(dt, self.control_period_s):
-            raise ValueError(
-                f"control_period_s: planner.dt_s = {dt} must be an integer number of control "
-                f"periods, got {self.control_period_s}"
+            raise ConfigError(
+                "control_period_s",
+                f"planner.dt_s = {dt} must be an integer number of control periods, got "
+                f"{self.control_period_s}",
             )
-        if not (math.isfinite(self.replan_period_s) and self.replan_period_s >= 0.0):
-            raise ValueError(f"replan_period_s: must be >= 0, got {self.replan_period_s}")
         if self.replan_period_s > 0.0 and not _is_multiple(self.replan_period_s, dt):
-            raise ValueError(
-                f"replan_period_s: must be an integer number of knots (planner.dt_s = {dt}), "
-                f"got {self.replan_period_s}"
+            raise ConfigError(
+                "replan_period_s",
+                f"must be an integer number of knots (planner.dt_s = {dt}), got "
+                f"{self.replan_period_s}",
             )
-        if not (math.isfinite(self.retry_period_s) and self.retry_period_s >= 0.0):
-            raise ValueError(f"retry_period_s: must be >= 0, got {self.retry_period_s}")
         if self.retry_period_s > 0.0 and not _is_multiple(
             self.retry_period_s, self.control_period_s
         ):
-            raise ValueError("retry_period_s: must be an integer number of control periods")
-        if int(self.min_replan_knots) != self.min_replan_knots or self.min_replan_knots < 2:
-            raise ValueError(
-                f"min_replan_knots: must be an integer >= 2, got {self.min_replan_knots}"
+            raise ConfigError("retry_period_s", "must be an integer number of control periods")
+        if int(self.min_replan_knots) != self.min_replan_knots:
+            raise ConfigError(
+                "min_replan_knots", f"must be an integer >= 2, got {self.min_replan_knots}"
             )
 
 
 def _is_multiple(value: float, period: float) -> bool:
     ratio = value / period
+    if not math.isfinite(ratio):  # a period of 1e-320: round() would overflow
+        return False
     return ratio >= 1.0 - 1e-9 and abs(ratio - round(ratio)) < 1e-9 * max(1.0, ratio)
 
 

@@ -13,12 +13,15 @@ steady state, which 1e-6 delivers.
 """
 
 import dataclasses
-import math
 
 from rpod.models import coupled_relative as cr
+from rpod.models.config import ConfigError, bounded, check_bounds
 from rpod.planners.coupled_nmpc import CoupledNmpcSettings
 
 INTEGRAL_WEIGHT = 1e-6  # Q_xi / I3: rpod's, not the printed 1e-9 (module docstring)
+MIN_INTEGRAL_STEP_S = 0.01
+"""The shortest trapezoid step of xi_T: each step is a discrete update of the diagram, so a run
+of the scenario's MAX_DURATION_S (1e6 s) holds at most its MAX_EVENTS (1e8) of them."""
 
 
 @dataclasses.dataclass
@@ -27,9 +30,9 @@ class CoupledNmpc:
 
     Args:
         control_period_s: T_c, the receding-horizon period (eq. 23): u*(0) is held for T_c,
-            then (22) is solved again. Sec. IV: T_s = T / N = 60 s. 0 would mean T / N
-            (`period_s`), but the scenario's check on controller.control_period_s refuses 0.
-        integral_step_s: the trapezoid step of the integral state xi_T (eq. 14) [s].
+            then (22) is solved again. Sec. IV: T_s = T / N = 60 s. 0: T / N (`period_s`).
+        integral_step_s: the trapezoid step of the integral state xi_T (eq. 14) [s], at most
+            the control period.
         max_thrust_N: f_max of eq. 17 in the plan; 0 (default): the thrusters' own
             (thrusters.max_thrust_N). A positive value, at most that, plans with a margin
             below the limit the bank enforces.
@@ -41,14 +44,20 @@ class CoupledNmpc:
             docstring for why the default is not the paper's printed value.
         nmpc: the transcription and solver of (22) (horizon_s T, intervals N, solver, ...;
             rpod.planners.coupled_nmpc.CoupledNmpcSettings, defaults Sec. IV: T = 480 s, N = 8).
+
+    Bounds (rpod.models.config, checked by `validate()`): the control period and the integral
+    step up to the scenario's MAX_DURATION_S (as the horizon), the step at least
+    MIN_INTEGRAL_STEP_S (it sets the number of discrete updates of a run); the thrust limit up
+    to 1e6 N (and the thrusters', checked with the scenario); feature points within 1 km of
+    their body's centre of mass; the integral weight up to 1e9, as the NLP's weights.
     """
 
-    control_period_s: float = cr.HORIZON_S / cr.HORIZON_INTERVALS
-    integral_step_s: float = 1.0
-    max_thrust_N: float = 0.0
-    target_feature_point_T_m: list[float] = dataclasses.field(default_factory=list)
-    chaser_feature_point_C_m: list[float] = dataclasses.field(default_factory=list)
-    integral_weight: float = INTEGRAL_WEIGHT
+    control_period_s: float = bounded(cr.HORIZON_S / cr.HORIZON_INTERVALS, 0.0, 1e6)
+    integral_step_s: float = bounded(1.0, MIN_INTEGRAL_STEP_S, 1e6)
+    max_thrust_N: float = bounded(0.0, 0.0, 1e6)
+    target_feature_point_T_m: list[float] = bounded([], -1e3, 1e3)  # noqa: RUF009 (a field())
+    chaser_feature_point_C_m: list[float] = bounded([], -1e3, 1e3)  # noqa: RUF009
+    integral_weight: float = bounded(INTEGRAL_WEIGHT, 0.0, 1e9)
     nmpc: CoupledNmpcSettings = dataclasses.field(default_factory=CoupledNmpcSettings)
 
     def period_s(self) -> float:
@@ -58,29 +67,20 @@ class CoupledNmpc:
         return float(self.control_period_s)
 
     def validate(self) -> None:
-        """Raises ValueError('field: message') naming the first bad field."""
+        """Raises ConfigError naming the first bad field: its declared bounds (check_bounds,
+        `nmpc.<field>` included), then the checks that need more than one field."""
+        check_bounds(self)
         try:
             self.nmpc.validate()
-        except ValueError as error:
-            raise ValueError(f"nmpc.{error}") from None
-        if not (math.isfinite(self.control_period_s) and self.control_period_s >= 0):
-            raise ValueError(
-                f"control_period_s: must be positive (or 0: T / N), got {self.control_period_s}"
-            )
-        if not (math.isfinite(self.integral_step_s) and self.integral_step_s > 0):
-            raise ValueError(f"integral_step_s: must be positive, got {self.integral_step_s}")
+        except ConfigError as error:
+            raise error.under("nmpc") from None
         if self.integral_step_s > self.period_s():
-            raise ValueError(
-                f"integral_step_s: must not exceed the control period ({self.period_s():g} s), "
-                f"got {self.integral_step_s:g}"
-            )
-        if not (math.isfinite(self.integral_weight) and self.integral_weight >= 0):
-            raise ValueError(f"integral_weight: must be >= 0, got {self.integral_weight}")
-        if not (math.isfinite(self.max_thrust_N) and self.max_thrust_N >= 0):
-            raise ValueError(
-                f"max_thrust_N: must be positive (or 0: the thrusters'), got {self.max_thrust_N}"
+            raise ConfigError(
+                "integral_step_s",
+                f"must not exceed the control period ({self.period_s():g} s), "
+                f"got {self.integral_step_s:g}",
             )
         for name in ("target_feature_point_T_m", "chaser_feature_point_C_m"):
             value = getattr(self, name)
-            if value and (len(value) != 3 or not all(math.isfinite(v) for v in value)):
-                raise ValueError(f"{name}: must be empty or 3 finite numbers, got {value}")
+            if value and len(value) != 3:
+                raise ConfigError(name, f"must be empty or 3 finite numbers, got {value}")

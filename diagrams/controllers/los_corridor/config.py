@@ -7,8 +7,8 @@ Does not own: the guidance's own fields and checks (LosGuidanceConfig), the wiri
 """
 
 import dataclasses
-import math
 
+from rpod.models.config import ConfigError, positive
 from rpod.systems.los_guidance import LosGuidanceConfig
 
 ACTUATIONS = ("ideal", "thrusters")
@@ -23,16 +23,17 @@ class LosCorridor(LosGuidanceConfig):
         actuation: 'ideal' (paper 004: an ideal acceleration in L, box-bounded by a_max) or
             'thrusters' (the scenario's fixed thruster bank through the allocator and PWM at
             10 Hz, the chaser's attitude held in L).
-        corridor_length_m: how far along +y_T the scene draws the corridor [m].
+        corridor_length_m: how far along +y_T the scene draws the corridor [m]: beyond the
+            floor, within the scenario's MAX_RANGE_M (1000 km).
     """
 
     actuation: str = "ideal"
-    corridor_length_m: float = 60.0
+    corridor_length_m: float = positive(60.0, 1e6)
 
     def validate(self) -> None:
-        """Raises ValueError('field: message') naming the first bad field."""
+        """Raises ConfigError naming the first bad field (LosGuidanceConfig's first)."""
         super().validate()
         if self.actuation not in ACTUATIONS:
-            raise ValueError(f"actuation: must be one of {ACTUATIONS}, got {self.actuation!r}")
-        if not (math.isfinite(self.corridor_length_m) and self.corridor_length_m > self.floor_m):
-            raise ValueError(f"corridor_length_m: must be beyond the floor ({self.floor_m} m)")
+            raise ConfigError("actuation", f"must be one of {ACTUATIONS}, got {self.actuation!r}")
+        if not self.corridor_length_m > self.floor_m:
+            raise ConfigError("corridor_length_m", f"must be beyond the floor ({self.floor_m} m)")

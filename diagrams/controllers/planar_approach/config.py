@@ -12,6 +12,7 @@ is derived from the scenario (problem.py).
 import dataclasses
 import math
 
+from rpod.models.config import ConfigError, bounded, check_bounds, positive
 from rpod.planners import planar_approach as planner
 from rpod.planners.planar_approach import PlanarApproachConfig
 
@@ -28,10 +29,11 @@ class PlanarPlannerSettings(planner.PlanarPlannerSettings):
     and the approach attitude; the problem data come from the scenario.
 
     Args:
-        theta_approach_deg: Target attitude at closest approach (Sec. V-A: 3 pi / 4 = 135 deg).
+        theta_approach_deg: Target attitude at closest approach (Sec. V-A: 3 pi / 4 = 135 deg),
+            within a turn either way (the planner's theta_approach_rad bound).
     """
 
-    theta_approach_deg: float = 135.0
+    theta_approach_deg: float = bounded(135.0, -360.0, 360.0)
 
     def planner_fields(self) -> dict:
         """These settings as PlanarApproachConfig keyword arguments (theta in radians)."""
@@ -40,14 +42,15 @@ class PlanarPlannerSettings(planner.PlanarPlannerSettings):
         return values
 
     def validate(self) -> None:
-        """Raises ValueError('field: message') naming the first bad field (the planner's own
-        checks, on these settings with valid problem data)."""
+        """Raises ConfigError naming the first bad field: the bounds of these settings
+        (theta_approach_deg's in degrees), then the planner's own checks on them with valid
+        problem data (theta_approach_rad named as theta_approach_deg)."""
+        check_bounds(self)
         try:
             PlanarApproachConfig(**self.planner_fields()).validate()
-        except ValueError as error:
-            field, _, message = str(error).partition(": ")
-            field = "theta_approach_deg" if field == "theta_approach_rad" else field
-            raise ValueError(f"{field}: {message}") from None
+        except ConfigError as error:
+            field = "theta_approach_deg" if error.field == "theta_approach_rad" else error.field
+            raise ConfigError(field, error.message) from None
 
 
 @dataclasses.dataclass
@@ -71,42 +74,48 @@ class PlanarApproach:
             or 'face_aligned' (turned onto the docking face before the chaser comes within
             reach of the target: module docstring).
         align_time_s: 'face_aligned': how long the turn onto the docking face takes [s].
+
+    Bounds (rpod.models.config, checked by `validate()`): the period in (0, 300] s (it is also
+    the planner's step dt_s: at most MAX_PLAN_KNOTS of them in planner.duration_max_s);
+    bandwidths in (0, 10] rad/s; the position tolerance within 1 km (the planner's
+    goal_tolerance_m), the speed tolerance up to 100 m/s, the heading tolerance in (0, 180] deg;
+    the turn within an hour, as the planner's durations.
     """
 
-    control_period_s: float = 0.1
+    control_period_s: float = positive(0.1, 300.0)
     planner: PlanarPlannerSettings = dataclasses.field(default_factory=PlanarPlannerSettings)
-    position_bandwidth_rad_s: float = 0.4
-    attitude_bandwidth_rad_s: float = 0.8
+    position_bandwidth_rad_s: float = positive(0.4, 10.0)
+    attitude_bandwidth_rad_s: float = positive(0.8, 10.0)
     feedforward: bool = False
     after_plan: str = "co_rotate"
-    goal_position_tolerance_m: float = 0.05
-    goal_speed_tolerance_m_s: float = 0.03
-    goal_attitude_tolerance_deg: float = 5.0
+    goal_position_tolerance_m: float = positive(0.05, 1e3)
+    goal_speed_tolerance_m_s: float = positive(0.03, 1e2)
+    goal_attitude_tolerance_deg: float = positive(5.0, 180.0)
     attitude_reference: str = "plan"
-    align_time_s: float = 20.0
+    align_time_s: float = positive(20.0, 3600.0)
 
     def validate(self) -> None:
-        """Raises ValueError('field: message') naming the first bad field."""
-        for name in (
-            "control_period_s",
-            "position_bandwidth_rad_s",
-            "attitude_bandwidth_rad_s",
-            "goal_position_tolerance_m",
-            "goal_speed_tolerance_m_s",
-            "goal_attitude_tolerance_deg",
-            "align_time_s",
-        ):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-                raise ValueError(f"{name}: must be a positive number, got {value!r}")
+        """Raises ConfigError naming the first bad field: its declared bounds (check_bounds,
+        `planner.<field>` included), then the choices, the planner's own checks and the
+        planner's knots at this period."""
+        check_bounds(self)
         if self.after_plan not in AFTER_PLAN:
-            raise ValueError(f"after_plan: must be one of {AFTER_PLAN}, got {self.after_plan!r}")
+            raise ConfigError("after_plan", f"must be one of {AFTER_PLAN}, got {self.after_plan!r}")
         if self.attitude_reference not in ATTITUDE_REFERENCES:
-            raise ValueError(
-                f"attitude_reference: must be one of {ATTITUDE_REFERENCES}, got "
-                f"{self.attitude_reference!r}"
+            raise ConfigError(
+                "attitude_reference",
+                f"must be one of {ATTITUDE_REFERENCES}, got {self.attitude_reference!r}",
             )
         try:
             self.planner.validate()
-        except ValueError as error:
-            raise ValueError(f"planner.{error}") from None
+        except ConfigError as error:
+            raise error.under("planner") from None
+        # The period is the planner's step dt_s: the longest candidate's knots, which the
+        # planner checks too (on problem.planner_config), here named by the field written.
+        knots = self.planner.duration_max_s / self.control_period_s
+        if knots - 1e-9 > planner.MAX_PLAN_KNOTS:
+            raise ConfigError(
+                "control_period_s",
+                f"planner.duration_max_s / control_period_s (the planner's step) is {knots:.6g} "
+                f"knots, must be at most {planner.MAX_PLAN_KNOTS}",
+            )
