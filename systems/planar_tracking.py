@@ -65,6 +65,7 @@ import numpy as np
 from pydrake.systems.framework import Context, LeafSystem, State
 from pydrake.trajectories import PiecewisePolynomial
 
+from rpod.models.config import ConfigError
 from rpod.models.frames import rotation_from_wxyz
 from rpod.systems.sensed import Sensed, declare_sensed_input
 
@@ -154,9 +155,9 @@ class PlanarTrackingConfig:
         return cls(control_period_s, kp_p, kd_p, kp_a, kd_a)
 
     def validate(self) -> None:
-        """Raises ValueError('field: message') naming the first bad field."""
+        """Raises ConfigError naming the first bad field."""
         if not (math.isfinite(self.control_period_s) and self.control_period_s > 0):
-            raise ValueError(f"control_period_s: must be positive, got {self.control_period_s}")
+            raise ConfigError("control_period_s", f"must be positive, got {self.control_period_s}")
         for name in (
             "position_kp_N_per_m",
             "position_kd_N_s_per_m",
@@ -165,7 +166,7 @@ class PlanarTrackingConfig:
         ):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
-                raise ValueError(f"{name}: must be finite and >= 0, got {value}")
+                raise ConfigError(name, f"must be finite and >= 0, got {value}")
 
 
 def wrap_to_pi(angle: float) -> float:

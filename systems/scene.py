@@ -87,6 +87,7 @@ from pydrake.perception import BaseField, Fields, PointCloud
 from pydrake.systems.framework import DiagramBuilder, EventStatus, LeafSystem, OutputPort
 from scipy.spatial import ConvexHull
 
+from rpod.models.config import ConfigError
 from rpod.models.frames import rotation_from_wxyz
 from rpod.systems.sensed import SENSED_PORT, Sensed, declare_sensed_input
 
@@ -138,21 +139,21 @@ class SceneConfig:
     meshcat_background: bool = False
 
     def validate(self) -> None:
-        """Raises ValueError naming the first bad field."""
+        """Raises ConfigError naming the first bad field."""
         for name in ("publish_period_s", "trail_marker_radius_m", "lvlh_axis_length_m"):
             if not np.isfinite(getattr(self, name)) or getattr(self, name) <= 0.0:
-                raise ValueError(f"{name}: must be positive, got {getattr(self, name)}")
+                raise ConfigError(name, f"must be positive, got {getattr(self, name)}")
         if self.trail_max_points < 1 or self.trail_stride < 1:
-            raise ValueError("trail_max_points: trail_max_points and trail_stride must be >= 1")
+            raise ConfigError("trail_max_points", "trail_max_points and trail_stride must be >= 1")
         if len(self.camera_position_L_m) not in (0, 3) or not np.all(
             np.isfinite(np.asarray(self.camera_position_L_m, dtype=float))
         ):
-            raise ValueError("camera_position_L_m: must be empty or 3 finite numbers")
+            raise ConfigError("camera_position_L_m", "must be empty or 3 finite numbers")
         direction = np.asarray(self.camera_direction_L, dtype=float)
         if direction.shape != (3,) or not np.all(np.isfinite(direction)):
-            raise ValueError("camera_direction_L: must be 3 finite numbers")
+            raise ConfigError("camera_direction_L", "must be 3 finite numbers")
         if np.linalg.norm(direction) < 1e-9:
-            raise ValueError("camera_direction_L: must not be zero")
+            raise ConfigError("camera_direction_L", "must not be zero")
 
 
 @dataclass
