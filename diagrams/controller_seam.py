@@ -125,7 +125,9 @@ class ControllerResults:
 
     Attributes:
         summary: entries added to summary.json (JSON-safe).
-        log: arrays added to log.npz.
+        log: arrays added to log.npz (simulate merges them into the run's log; an entry set to
+            None removes that key, e.g. a raw status vector the plug-in split into named
+            arrays). Plug-ins never change the `log` they are given.
         outcome: the mission outcome, or None when the controller has no mission criterion.
     """
 
@@ -208,9 +210,6 @@ class ControllerPlugin:
                 check()
         except ConfigError as error:
             raise error.under("controller") from None
-        except ValueError as error:  # BRIDGE: until every validate() raises ConfigError
-            field, _, message = str(error).partition(": ")
-            raise ConfigError(f"controller.{field}", message) from None
 
     def load_warnings(self, config, scenario) -> list[str]:
         """Warnings about a valid config that will likely fail its mission (one line each,

@@ -621,9 +621,8 @@ def validate_scenario(scenario: Scenario) -> None:
     )
     try:
         scenario.visualization.validate()
-    except ValueError as error:
-        field, _, message = str(error).partition(": ")
-        raise ScenarioError(f"visualization.{field}", message) from None
+    except ScenarioError as error:
+        raise error.under("visualization") from None
     _positive(scenario.target.corridor_length_m, "target.corridor_length_m")
     _validate_work(scenario)
     # Last: it needs valid shapes and attitudes.

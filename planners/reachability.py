@@ -12,7 +12,7 @@ the backward kernel (Sec. 10.2) as the exact polygon of a projected polyhedron
 Does not own: the corridor (rpod.models.los_corridor), the CW and body-frame models
 (rpod.models.cw, rpod.planners.los_prediction), the Monte Carlo set X_MC (closed-loop runs,
 rpod.scenarios), the tables and figures (benchmarks/bench_reachability.py,
-rpod.diagrams.plots_reachability).
+rpod.diagrams.controllers.los_corridor.reachability_figures).
 
 Every choice the paper leaves open, as made here (measured in
 benchmarks/results/reachability.md):

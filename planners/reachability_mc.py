@@ -9,7 +9,7 @@ comparison with the certified sets (`mc_report`: X_MC's share of the cone, the e
 X_nom within X_MC and the runs behind them).
 Does not own: the runs (`rpod sweep` and its store, rpod.scenarios; this module reads the
 store's rows as plain dicts), the analytical sets and the grid (rpod.planners.reachability),
-the figures (rpod.diagrams.plots_reachability_mc), the tables
+the figures (rpod.diagrams.controllers.los_corridor.monte_carlo_figures), the tables
 (benchmarks/los_monte_carlo_report.py).
 
 Choices, where the paper leaves them open:

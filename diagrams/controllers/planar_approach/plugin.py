@@ -147,10 +147,10 @@ class PlanarApproachPlugin(ControllerPlugin):
                 "target.w_IT_T_deg_s",
                 f"paper 003's target spins about z: [0, 0, omega] with omega != 0, got {list(w)}",
             )
-        try:
+        try:  # the settings as written, with the problem data derived from the scenario
             planner_config(scenario).validate()
-        except ValueError as error:
-            raise ScenarioError("controller.planner", str(error)) from None
+        except ScenarioError as error:
+            raise error.under("controller.planner") from None
 
     def add_to_diagram(self, builder, scenario, sensed) -> PlanarWiring:
         run = make_run(scenario)

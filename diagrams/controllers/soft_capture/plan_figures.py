@@ -1,9 +1,10 @@
 """PNG plots of soft-capture plans, after paper 000's Figs. 5-9.
 
-Owns: `write_plan_plots` (the `plots/*.png` of `rpod plan`), `write_scp_correction_plots` (Figs.
+Owns: `FIGURES`, the figures of one plan ({name: draw(arrays of plan.npz, title)}: the
+`plots/*.png` of `rpod plan`, through plan_file.py), `write_scp_correction_plots` (Figs.
 5-7: Problem 2's solution beside the SCP's corrected one), `write_start_outcomes_plot` (Fig. 8:
 the outcome of each sampled start) and `write_alpha_overlay_plot` (Fig. 9: alpha_k of many
-plans). Does not own: planning, the plan file (rpod.scenarios.plan), the campaign that makes
+plans). Does not own: planning, the plan file (plan_file.py, rpod.scenarios.plan), the campaign that makes
 the plans (benchmarks/soft_capture_figures.py), or the plots of a simulated run
 (rpod.diagrams.plots).
 
@@ -242,39 +243,6 @@ FIGURES = {
 assert tuple(FIGURES) == PLAN_FIGURE_NAMES
 
 
-def write_plan_plots(plan: Mapping, out_dir: Path, title: str = "") -> list[Path]:
-    """Writes the plan's PNG figures into out_dir (created if needed).
-
-    Args:
-        plan: The arrays of plan.npz (a dict or an `np.load`ed npz): t (N), x (N, 6), u (N-1, 3),
-            q_LT and q_LC (N, 4), alpha (N), optional alpha_check (N), V_target and V_chaser
-            (polytope vertices in T and C), D_t (3), and the scalars theta_dock, U_max, v_max,
-            omega_max, dt, alpha_min.
-        out_dir: Output folder, e.g. runs/<scenario>-plan/plots.
-        title: Prefix of every figure's title.
-
-    Returns:
-        The paths written, in `PLAN_FIGURE_NAMES` order. A figure that fails to draw is logged
-        as a warning and skipped (plots are a side output).
-    """
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    drawable = len(np.asarray(plan["t"])) >= 2
-    written = []
-    for name, make in FIGURES.items():
-        path = out_dir / name
-        if not drawable:
-            path.unlink(missing_ok=True)
-            continue
-        try:
-            save_figure(make(plan, title), path)
-            written.append(path)
-        except Exception:  # a side output: never lose the others
-            _logger.warning("plan plots: could not draw %s", name, exc_info=True)
-            path.unlink(missing_ok=True)
-    return written
-
-
 SCP_FIGURE_NAMES = ("fig5_trajectory.png", "fig6_thrust.png", "fig7_alpha.png")
 _STATUS_STYLES = (  # (colour, filled marker) of the failure statuses, in order of first use
     ("tab:red", "X"),
@@ -468,7 +436,7 @@ def write_scp_correction_plots(
     Args:
         iterates: Plans at one N, in order: Problem 2's solution, then the iterate after each SCP
             iteration; the last is the planner's plan. Each holds the arrays of plan.npz that
-            `write_plan_plots` reads (t, x, u, q_LT, q_LC, alpha); the last also V_target,
+            `FIGURES` read (t, x, u, q_LT, q_LC, alpha); the last also V_target,
             V_chaser, D_t, theta_dock, U_max and alpha_min.
         out_dir: Output folder (created if needed).
         title: Prefix of every figure's title.

@@ -59,10 +59,10 @@ class SoftCapturePlugin(ControllerPlugin):
                 "paper 000's docking cone is about the direction of the docking port D_t: "
                 f"docking_axis_T must be that direction, {list(map(float, D_t))}",
             )
-        try:
+        try:  # the settings as written, with the problem data derived from the scenario
             planner_config(scenario).validate()
-        except ValueError as error:
-            raise ScenarioError("controller.planner", str(error)) from None
+        except ScenarioError as error:
+            raise error.under("controller.planner") from None
 
     def add_to_diagram(self, builder, scenario, sensed) -> ControllerWiring:
         chaser_shape, target_shape = body_polytopes(scenario)
