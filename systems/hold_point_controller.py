@@ -34,7 +34,7 @@ from pydrake.common.value import Value
 from pydrake.math import RotationMatrix
 from pydrake.systems.framework import LeafSystem
 
-from rpod.models.config import ConfigError, bounded, check_bounds, positive
+from rpod.models.config import bounded, check_bounds, positive
 from rpod.models.cw import cw_acceleration
 from rpod.models.docking import DockingGeometry
 from rpod.models.frames import rotation_from_wxyz
@@ -57,14 +57,15 @@ class HoldPointControllerConfig:
         descent_gate_deg: the reference descends to the hold range only within this angle of
             the docking axis; outside, it moves around the target at the chaser's range.
         max_reference_step_deg: how far ahead of the chaser's line of sight the reference may be.
-        capture_axis_C: unit capture axis in the chaser body frame (points at the target).
 
     Bounds (rpod.models.config, checked by `validate()`): the period in (0, 300] s (the
     scenario bounds the samples of a run); the hold distance within the scenario's MAX_RANGE_M
     (1000 km; 0 is the port itself); bandwidths in (0, 10] rad/s and damping ratios in (0, 10];
     the speed limit up to the scenario's MAX_RELATIVE_SPEED_M_S; the gate and the reference step
-    in (0, 180] deg (an angle between two directions); the capture axis's components within
-    1e3 (it is normalised).
+    in (0, 180] deg (an angle between two directions).
+
+    The capture axis is not configured here: it is the direction of the chaser's capture point
+    (the scenario's chaser.capture_point_C), given to the controller.
     """
 
     control_period_s: float = positive(0.1, 300.0)
@@ -76,17 +77,10 @@ class HoldPointControllerConfig:
     attitude_damping: float = positive(1.0, 10.0)
     descent_gate_deg: float = positive(10.0, 180.0)
     max_reference_step_deg: float = positive(20.0, 180.0)
-    capture_axis_C: list[float] = bounded([0.0, 0.0, 1.0], -1e3, 1e3)  # noqa: RUF009 (a field())
 
     def validate(self) -> None:
-        """Raises ConfigError naming the first bad field: its declared bounds (check_bounds),
-        then the capture axis's shape."""
+        """Raises ConfigError naming the first field outside its declared bounds."""
         check_bounds(self)
-        axis = np.asarray(self.capture_axis_C, dtype=float)
-        if axis.shape != (3,) or np.linalg.norm(axis) < 1e-12:
-            raise ConfigError(
-                "capture_axis_C", f"expected a non-zero 3-vector, got {self.capture_axis_C}"
-            )
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -120,6 +114,9 @@ class HoldPointController(LeafSystem):
 
     Input port: sensed (33, the sensed bundle of rpod.systems.sensed).
     Output ports: body_wrench_desired (6, [tau_C; f_C]), hold_point_L (3), reference_L (3).
+    Built from the config, the chaser's mass and inertia, the target's docking geometry and the
+    chaser's capture point in C (its direction is the capture axis the law points at the
+    target; non-zero).
     """
 
     def __init__(
@@ -128,6 +125,7 @@ class HoldPointController(LeafSystem):
         chaser_mass_kg: float,
         chaser_inertia: np.ndarray,
         docking: DockingGeometry,
+        capture_point_C,
     ):
         super().__init__()
         self._config = config
@@ -135,7 +133,7 @@ class HoldPointController(LeafSystem):
         self._J = np.asarray(chaser_inertia, dtype=float)
         self._p_TH_T = docking.p_TD_T + config.hold_distance_m * docking.axis_T
         # R_CK: a fixed frame K in C whose z axis is the capture axis; the law points K.
-        capture_C = _unit(np.asarray(config.capture_axis_C, float))
+        capture_C = _unit(np.asarray(capture_point_C, float))  # the capture axis
         self._R_CK = _pointing_rotation(capture_C, np.array([1.0, 0.0, 0.0]), np.eye(3)[1])
 
         self._sensed_port = declare_sensed_input(self)

@@ -41,7 +41,7 @@ def evaluate(
     config=None,
 ):
     config = config or HoldPointControllerConfig()
-    controller = HoldPointController(config, MASS, J, DOCKING)
+    controller = HoldPointController(config, MASS, J, DOCKING, [0.0, 0.0, 0.75])
     context = controller.CreateDefaultContext()
     controller.GetInputPort("sensed").FixValue(
         context,
@@ -58,7 +58,9 @@ def evaluate(
 
 
 def test_structure():
-    controller = HoldPointController(HoldPointControllerConfig(), MASS, J, DOCKING)
+    controller = HoldPointController(
+        HoldPointControllerConfig(), MASS, J, DOCKING, [0.0, 0.0, 0.75]
+    )
     sizes = {
         controller.get_input_port(i).get_name(): controller.get_input_port(i).size()
         for i in range(controller.num_input_ports())

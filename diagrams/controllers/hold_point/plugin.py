@@ -14,7 +14,7 @@ from rpod.diagrams.controller_seam import (
 )
 from rpod.diagrams.controllers.hold_point.config import HoldPoint
 from rpod.diagrams.controllers.hold_point.metrics import hold_results
-from rpod.diagrams.scenario import docking_geometry
+from rpod.diagrams.scenario import ScenarioError, docking_geometry
 from rpod.systems.hold_point_controller import HoldPointController
 from rpod.systems.sensed import SENSED_PORT
 
@@ -25,6 +25,16 @@ class HoldPointPlugin(ControllerPlugin):
     config_type = HoldPoint
     system_name = "hold_point_controller"
 
+    def validate(self, config, scenario) -> None:
+        """The config's bounds, and a capture axis to point: chaser.capture_point_C non-zero."""
+        super().validate(config, scenario)
+        if not np.linalg.norm(scenario.chaser.capture_point_C) > 1e-9:
+            raise ScenarioError(
+                "chaser.capture_point_C",
+                "the hold-point law points the capture axis (the capture point's direction) at "
+                "the target: it must not be the zero vector",
+            )
+
     def add_to_diagram(self, builder, scenario, sensed) -> ControllerWiring:
         config = scenario.controller
         controller = builder.AddNamedSystem(
@@ -34,6 +44,7 @@ class HoldPointPlugin(ControllerPlugin):
                 scenario.chaser.mass_kg,
                 np.asarray(scenario.chaser.inertia_kg_m2, float),
                 docking_geometry(scenario),
+                scenario.chaser.capture_point_C,
             ),
         )
         builder.Connect(sensed, controller.GetInputPort(SENSED_PORT))

@@ -23,17 +23,18 @@ class LosCorridor(LosGuidanceConfig):
         actuation: 'ideal' (paper 004: an ideal acceleration in L, box-bounded by a_max) or
             'thrusters' (the scenario's fixed thruster bank through the allocator and PWM at
             10 Hz, the chaser's attitude held in L).
-        corridor_length_m: how far along +y_T the scene draws the corridor [m]: beyond the
-            floor, within the scenario's MAX_RANGE_M (1000 km).
+        drawn_length_m: how far along +y_T the scene draws the LOS corridor [m]: beyond the
+            floor, within the scenario's MAX_RANGE_M (1000 km). Only the scene's; the docking
+            corridor of the summary's violation metric is target.corridor_length_m.
     """
 
     actuation: str = "ideal"
-    corridor_length_m: float = positive(60.0, 1e6)
+    drawn_length_m: float = positive(60.0, 1e6)
 
     def validate(self) -> None:
         """Raises ConfigError naming the first bad field (LosGuidanceConfig's first)."""
         super().validate()
         if self.actuation not in ACTUATIONS:
             raise ConfigError("actuation", f"must be one of {ACTUATIONS}, got {self.actuation!r}")
-        if not self.corridor_length_m > self.floor_m:
-            raise ConfigError("corridor_length_m", f"must be beyond the floor ({self.floor_m} m)")
+        if not self.drawn_length_m > self.floor_m:
+            raise ConfigError("drawn_length_m", f"must be beyond the floor ({self.floor_m} m)")

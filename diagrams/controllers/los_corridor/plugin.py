@@ -163,7 +163,7 @@ class LosCorridorPlugin(ControllerPlugin):
 
         guidance = wiring.system
         add_los_corridor_to_scene(
-            scene, guidance.corridor, scenario.controller.corridor_length_m, guidance.p_TH_T
+            scene, guidance.corridor, scenario.controller.drawn_length_m, guidance.p_TH_T
         )
 
     def campaign_table(self, rows):
