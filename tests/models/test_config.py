@@ -18,7 +18,7 @@ from rpod.models.config import (
 @dataclasses.dataclass
 class _Inner:
     iterations: int = count(10, 1, 100)
-    weights: list[float] = bounded([1.0, 2.0], 0.0, 1e6)
+    weights: list[float] = bounded([1.0, 2.0], 0.0, 1e6)  # noqa: RUF009 (a field())
 
 
 @dataclasses.dataclass

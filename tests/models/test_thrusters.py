@@ -36,19 +36,19 @@ RTOL = 1e-12  # round-off of a few flops
 @pytest.mark.parametrize(
     "changes, field",
     [
-        (dict(max_thrust_N=0.0), "max_thrust_N"),
-        (dict(max_thrust_N=-1.0), "max_thrust_N"),
-        (dict(isp_s=0.0), "isp_s"),
-        (dict(isp_s=-200.0), "isp_s"),
-        (dict(direction_C=[1.0, 1.0, 0.0]), "direction_C"),
-        (dict(direction_C=[0.0, 0.0]), "direction_C"),
-        (dict(p_CK_C=[0.0, np.nan, 0.0]), "p_CK_C"),
-        (dict(gimbal_half_angle_rad=-0.1), "gimbal_half_angle_rad"),
-        (dict(gimbal_half_angle_rad=math.pi / 2), "gimbal_half_angle_rad"),
+        ({"max_thrust_N": 0.0}, "max_thrust_N"),
+        ({"max_thrust_N": -1.0}, "max_thrust_N"),
+        ({"isp_s": 0.0}, "isp_s"),
+        ({"isp_s": -200.0}, "isp_s"),
+        ({"direction_C": [1.0, 1.0, 0.0]}, "direction_C"),
+        ({"direction_C": [0.0, 0.0]}, "direction_C"),
+        ({"p_CK_C": [0.0, np.nan, 0.0]}, "p_CK_C"),
+        ({"gimbal_half_angle_rad": -0.1}, "gimbal_half_angle_rad"),
+        ({"gimbal_half_angle_rad": math.pi / 2}, "gimbal_half_angle_rad"),
     ],
 )
 def test_validate_thruster_names_the_bad_field(changes, field):
-    fields = dict(p_CK_C=[1.0, 0.0, 0.0], direction_C=[0.0, 1.0, 0.0], max_thrust_N=1.0)
+    fields = {"p_CK_C": [1.0, 0.0, 0.0], "direction_C": [0.0, 1.0, 0.0], "max_thrust_N": 1.0}
     fields.update(changes)
     with pytest.raises(ValueError, match=field):
         validate_thruster(Thruster(**fields))

@@ -84,6 +84,7 @@ def test_ids_are_the_same_in_another_process(tmp_path):
         text=True,
         timeout=120,
         env={"PYTHONHASHSEED": "12345", **__import__("os").environ},
+        check=False,
     )
     assert process.returncode == 0, process.stderr
     assert json.loads(process.stdout) == [r.run_id for r in plan_runs(load_campaign(str(path)))]
@@ -358,8 +359,10 @@ BAD_CAMPAIGNS = [
     ),
     (
         "passively_safe_conflict",
-        "base: coast\nsample:\n  count: 2\n  passively_safe: {radial_m: 10.0}\n"
-        "  fields: {'chaser.p_LC_L[0]': {dist: uniform, low: 1, high: 2}}\n",
+        (
+            "base: coast\nsample:\n  count: 2\n  passively_safe: {radial_m: 10.0}\n"
+            "  fields: {'chaser.p_LC_L[0]': {dist: uniform, low: 1, high: 2}}\n"
+        ),
         "sample.fields.chaser.p_LC_L[0]",
     ),
     (
@@ -369,14 +372,18 @@ BAD_CAMPAIGNS = [
     ),
     (
         "grid_and_case_conflict",
-        "base: coast\ngrid: {chaser.mass_kg: [1.0]}\n"
-        "cases: [{name: a, overrides: {chaser.mass_kg: 2.0}}]\n",
+        (
+            "base: coast\ngrid: {chaser.mass_kg: [1.0]}\n"
+            "cases: [{name: a, overrides: {chaser.mass_kg: 2.0}}]\n"
+        ),
         "cases[0].overrides.chaser.mass_kg",
     ),
     (
         "duplicate_cases",
-        "base: coast\ncases: [{name: a, overrides: {chaser.mass_kg: 2.0}}, {name: b, overrides: "
-        "{chaser.mass_kg: 2.0}}]\n",
+        (
+            "base: coast\ncases: [{name: a, overrides: {chaser.mass_kg: 2.0}}, {name: b, overrides: "
+            "{chaser.mass_kg: 2.0}}]\n"
+        ),
         "cases[1]",
     ),
     ("nothing_to_vary", "base: coast\noverrides: {duration_s: 5.0}\n", "nothing to vary"),

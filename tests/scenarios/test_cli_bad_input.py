@@ -63,6 +63,7 @@ def run_rpod(*args, cwd):
         capture_output=True,
         text=True,
         timeout=120,
+        check=False,
     )
 
 

@@ -212,9 +212,9 @@ def test_random_sec_vib_starts_capture_in_closed_loop(seed):
     11-30 m away): every successful plan must capture with no contact (~2 min per seed)."""
     from pydrake.math import RollPitchYaw, RotationMatrix
 
+    from rpod.diagrams.controllers.soft_capture import plan_scenario
     from rpod.models.cw import passively_safe_state
     from rpod.planners.pointing import min_rotation
-    from rpod.diagrams.controllers.soft_capture import plan_scenario
 
     rng = np.random.default_rng(seed)
     _, base = load_scenario("soft_capture")

@@ -108,7 +108,7 @@ def test_to_data_round_trips_through_yaml_with_tags():
 
 def test_dotted_paths_lead_into_the_union_member_that_has_them():
     assert schema.path_type(Root, "choice.limit") is float
-    assert schema.path_type(Root, "choice.gains.kd") == typing.Optional[float]
+    assert schema.path_type(Root, "choice.gains.kd") == float | None
     assert schema.path_type(Root, "choice.steps[0]") is int
     with pytest.raises(ConfigError, match="no member of choice"):
         schema.path_type(Root, "choice.nothing")
