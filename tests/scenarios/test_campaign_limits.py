@@ -163,7 +163,8 @@ BAD_PARAMETERS = [
     (
         "integer_beyond_floats",
         sampled("{dist: uniform, low: " + "9" * 400 + ", high: 2}"),
-        "sample.fields.chaser.mass_kg.low: must be finite",
+        # refused as the YAML is read (rpod.scenarios.yaml_reader), where it is: line and column
+        "YAML value error at line 2, column 66: integer too large (400 characters",
     ),
     (
         "uniform_width_overflows",
