@@ -12,9 +12,9 @@ lists, strings, numbers, booleans), and the rules that make that safe and unsurp
   consumer (the schema check, an error message, a JSON dump) would walk them all. The depth is
   that of the data the aliases resolve to (`c: &c [*b]` is one deeper than `b`), so a chain of
   aliases cannot build data nested deeper than MAX_DEPTH either.
-- An integer beyond the float range (about 1.8e308, i.e. more than 309 digits) is an error: no
-  rpod field can hold it (a float field would overflow, no count is that large), and converting
-  thousands of digits is slow (Python refuses more than 4300).
+- An integer of more than MAX_INT_DIGITS digits is an error here: Python refuses to convert
+  more (and the conversion's cost grows with the square of the length). A shorter one beyond
+  the float range is the schema check's to refuse, naming the field (`must be finite`).
 - Text that is not YAML text (a NUL or another control character: a binary file) is an error
   naming the line and column of the first such character.
 - Error messages quote at most QUOTE_CHARS characters of what the file holds.
@@ -26,13 +26,12 @@ Does not own: what the data means (loader.py, campaign.py).
 """
 
 import re
-import sys
 
 import yaml
 
 MAX_DEPTH = 32  # the scenario schema nests 5 deep; campaigns add 3
 MAX_VALUES = 2_000_000  # scalars + containers after alias expansion (a 1,000,000-value grid fits)
-MAX_INT_DIGITS = 309  # the float range ends at 1.8e308: every larger integer is refused
+MAX_INT_DIGITS = 4300  # Python's own limit of int(str) (sys.get_int_max_str_digits())
 QUOTE_CHARS = 60  # longest quotation of the file's text in an error message
 
 _FLOAT_TAG = "tag:yaml.org,2002:float"
@@ -88,7 +87,7 @@ def _construct_int(loader, node) -> int:
             value = int(digits[2:], 8 if digits[1] == "o" else 16)
         elif not (digits.isascii() and digits.isdigit()):  # an explicit !!int tag on a non-int
             raise ValueError(text)
-        elif len(digits) > MAX_INT_DIGITS + 10:  # surely too large: not even converted
+        elif len(digits) > MAX_INT_DIGITS:  # too long: not even converted
             value = None
         else:
             value = int(digits, 10)  # base 10: "010" is ten, as in YAML 1.2
@@ -96,18 +95,18 @@ def _construct_int(loader, node) -> int:
         raise yaml.constructor.ConstructorError(
             None, None, f"not an integer: {_cut(repr(text))}", node.start_mark
         ) from None
-    if value is None or value > _LARGEST_INT:
+    if value is None or value >= _TOO_LONG:
         raise yaml.constructor.ConstructorError(
             None,
             None,
-            f"integer too large ({len(text):,} characters: {_cut(text, 24)}); rpod reads "
-            f"numbers up to about 1.8e308",
+            f"integer too long ({len(text):,} characters: {_cut(text, 24)}); rpod reads "
+            f"integers of up to {MAX_INT_DIGITS:,} digits",
             node.start_mark,
         )
     return sign * value
 
 
-_LARGEST_INT = int(sys.float_info.max)
+_TOO_LONG = 10**MAX_INT_DIGITS  # the least integer of more than MAX_INT_DIGITS digits
 _Loader.add_constructor(_INT_TAG, _construct_int)
 
 

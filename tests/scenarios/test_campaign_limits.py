@@ -163,8 +163,9 @@ BAD_PARAMETERS = [
     (
         "integer_beyond_floats",
         sampled("{dist: uniform, low: " + "9" * 400 + ", high: 2}"),
-        # refused as the YAML is read (rpod.scenarios.yaml_reader), where it is: line and column
-        "YAML value error at line 2, column 66: integer too large (400 characters",
+        # read (yaml_reader refuses only integers Python will not convert, over 4,300 digits),
+        # then refused by the field's check, which names the field
+        "sample.fields.chaser.mass_kg.low: must be finite",
     ),
     (
         "uniform_width_overflows",

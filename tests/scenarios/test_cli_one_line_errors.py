@@ -39,8 +39,9 @@ BAD_FILES = [
         "p: &p " + "[" * 15 + "1" + "]" * 15 + "\nq: " + "[" * 20 + "*p" + "]" * 20 + "\nr: *p\n",
         "nested deeper",
     ),
-    ("huge_integer", "chaser:\n  mass_kg: " + "9" * 4000 + "\n", "integer too large"),
-    ("integer_past_float", "chaser:\n  mass_kg: " + "9" * 401 + "\n", "integer too large"),
+    ("huge_integer", "chaser:\n  mass_kg: " + "9" * 4000 + "\n", "chaser.mass_kg: must be finite"),
+    ("integer_past_float", "chaser:\n  mass_kg: " + "9" * 401 + "\n", "chaser.mass_kg: must be"),
+    ("integer_too_long", "chaser:\n  mass_kg: " + "9" * 5000 + "\n", "integer too long"),
 ]
 
 

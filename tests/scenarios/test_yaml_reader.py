@@ -190,29 +190,31 @@ def test_data_met_shallow_first_and_then_deeper_through_an_alias_is_refused():
         parse_yaml(text)
 
 
-@pytest.mark.parametrize("digits", [310, 401, 4000, 5000])
-def test_an_integer_beyond_the_float_range_is_refused_and_not_echoed(digits):
-    for sign in ("", "-"):
-        with pytest.raises(YamlError) as raised:
-            parse_yaml(f"x: {sign}{'9' * digits}\n")
-        message = str(raised.value)
-        assert message.startswith("YAML value error at line 1, column 4: integer too large")
-        assert len(message) < 200, message
+@pytest.mark.parametrize("text", ["9" * 4301, "-" + "9" * 4301, "9" * 100_000, "0x" + "f" * 4000])
+def test_an_integer_too_long_to_convert_is_refused_and_not_echoed(text):
+    with pytest.raises(YamlError) as raised:
+        parse_yaml(f"x: {text}\n")
+    message = str(raised.value)
+    assert message.startswith("YAML value error at line 1, column 4: integer too long")
+    assert len(message) < 200, message
 
 
-def test_the_largest_integers_that_fit_a_float_are_read():
-    assert parse_yaml(f"x: {'9' * 308}\n")["x"] == int("9" * 308)
-    assert parse_yaml("x: 0x" + "f" * 255 + "\n")["x"] == 16**255 - 1
+def test_long_integers_that_python_converts_are_read():
+    assert parse_yaml(f"x: {'9' * 4300}\n")["x"] == 10**4300 - 1
+    assert parse_yaml(f"x: -{'9' * 401}\n")["x"] == -(10**401 - 1)
 
 
-def test_a_401_digit_integer_for_a_float_field_is_one_line_naming_the_file(tmp_path):
+@pytest.mark.parametrize("digits", [310, 401, 4000])
+def test_an_integer_beyond_the_float_range_for_a_float_field_is_one_line_naming_the_file(
+    tmp_path, digits
+):
     scenario = tmp_path / "big.yaml"
-    scenario.write_text(f"chaser:\n  mass_kg: {'9' * 401}\n")
+    scenario.write_text(f"chaser:\n  mass_kg: {'9' * digits}\n")
     with pytest.raises(ScenarioFileError) as raised:
         load_scenario(str(scenario))
     message = str(raised.value)
-    assert message.startswith(f"{scenario}: YAML value error at line 2, column 12: integer too")
-    assert len(message) < 250 and "9" * 30 not in message
+    assert message.startswith(f"{scenario}: chaser.mass_kg: must be finite"), message
+    assert len(message) < 250 and "9" * 60 not in message, message
 
 
 @pytest.mark.parametrize(
