@@ -59,11 +59,15 @@ from rpod.scenarios.loader import (
     load_scenario,
     read_yaml,
 )
-from rpod.scenarios.schema import is_record, quote
+from rpod.scenarios.schema import is_record, quote, quote_path
 
 CAMPAIGNS_DIR = BUNDLED_DIR / "campaigns"
 TOP_LEVEL_KEYS = ("description", "base", "overrides", "timeout_s", "grid", "cases", "sample")
 SAMPLE_KEYS = ("count", "seed", "fields", "passively_safe")
+YAML_SUFFIXES = (".yaml", ".yml")
+SNIFF_BYTES = 65536  # how much of a `base:` file is read to tell text from a binary file
+PATH_CHARS = 200  # a file path is quoted whole up to this length
+MESSAGE_CHARS = 300  # the part of an error line after the file and location, at most
 # Most runs one campaign may plan (cases x grid points x samples), refused at load before
 # anything is built: the plan holds every run in memory, and a million runs take minutes to plan.
 MAX_RUNS = 1_000_000
@@ -239,8 +243,27 @@ class PlannedRun:
     overrides: dict
 
 
+def _cut(text, limit: int) -> str:
+    """text on one line, cut to `limit` characters ("..." marks the cut)."""
+    text = " ".join(str(text).split())
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _say(source, location: str | None, *message: str) -> ScenarioFileError:
+    """'source: location: message', each part cut: the file's path to PATH_CHARS, the location
+    (built from the file's keys) to quote_path's length, the message to MESSAGE_CHARS. Every
+    error of a campaign file goes through here, so no key or value of it is echoed whole."""
+    head = _cut(source, PATH_CHARS) + (f": {quote_path(_cut(location, 1000))}" if location else "")
+    return ScenarioFileError(f"{head}: {_cut(': '.join(message), MESSAGE_CHARS)}")
+
+
 def _error(source: str, error: ScenarioError) -> ScenarioFileError:
-    return ScenarioFileError(f"{source}: {error.field}: {error.message}")
+    return _say(source, error.field, error.message)
+
+
+def _count(number: int) -> str:
+    """A count for an error line: 1,234,567, or its order of magnitude when it is huge."""
+    return f"{number:,}" if number < 10**15 else f"about 10^{len(str(number)) - 1}"
 
 
 def _require_int(value, location: str, minimum: int) -> int:
@@ -349,11 +372,11 @@ def _check_run_count(grid: dict, cases: list, sample: SampleBlock | None) -> Non
     }
     total = math.prod(factors.values())
     if total > MAX_RUNS:
-        sizes = " x ".join(f"{n:,}" for n in factors.values())
+        sizes = " x ".join(_count(n) for n in factors.values())
         raise ScenarioError(
             max(factors, key=factors.get),
-            f"{total:,} runs planned (cases x grid points x samples = {sizes}), above the "
-            f"limit of {MAX_RUNS:,}",
+            f"{_count(total)} runs planned (cases x grid points x samples = {sizes}), above "
+            f"the limit of {MAX_RUNS:,}",
         )
 
 
@@ -411,18 +434,12 @@ def parse_campaign(text: str, source: str, name: str, base_dir: pathlib.Path) ->
     except ScenarioError as error:
         raise _error(source, error) from None
 
-    base_path = base_dir / data["base"]
-    try:
-        base_name, base = load_scenario(str(base_path) if base_path.is_file() else data["base"])
-    except ScenarioFileError as error:
-        if not base_path.is_file() and "no such file" in str(error):
-            raise ScenarioFileError(f"{source}: base: {error}") from None
-        raise  # a problem inside the base file names that file and field
+    base_name, base = _load_base(data["base"], base_dir, source)
     try:
         base = apply_overrides(base, overrides)
         validate_scenario(base)
     except ScenarioError as error:
-        raise ScenarioFileError(f"{source}: overrides.{error.field}: {error.message}") from None
+        raise _say(source, f"overrides.{error.field}", error.message) from None
     return Campaign(
         name,
         source,
@@ -437,6 +454,59 @@ def parse_campaign(text: str, source: str, name: str, base_dir: pathlib.Path) ->
     )
 
 
+def _binary(path: pathlib.Path) -> str | None:
+    """Why the file is a binary file and not text (from its first SNIFF_BYTES), or None."""
+    with open(path, "rb") as handle:
+        head = handle.read(SNIFF_BYTES)
+    if b"\0" in head:
+        return "it holds NUL bytes: a binary file"
+    try:
+        head.decode("utf-8")
+    except UnicodeDecodeError as error:
+        if len(head) < SNIFF_BYTES or error.start < len(head) - 3:  # not a character cut short
+            return "it is not UTF-8 text: a binary file"
+    return None
+
+
+def _load_base(base: str, base_dir: pathlib.Path, source: str):
+    """(name, Scenario) of a campaign's `base:`: a scenario file relative to the campaign, or a
+    bundled scenario. ScenarioFileError naming the campaign's `base`. A file that is not a
+    scenario YAML file (a binary file, or one not named .yaml/.yml that does not read as a
+    scenario: a Python file) is said to be one, with at most a short cut of what it holds; a
+    problem inside a YAML file names that file and its field."""
+    path = base_dir / base
+    try:
+        is_file = path.is_file()
+        why = _binary(path) if is_file else None
+    except OSError as error:  # a name too long, a file that cannot be opened
+        raise _say(source, "base", f"{quote(base)}: cannot be read ({error.strerror})") from None
+    shown = _cut(path, PATH_CHARS)
+    if why:
+        raise _say(source, "base", f"{shown} is not a scenario YAML file ({why})")
+    if not is_file:
+        if path.is_dir():
+            raise _say(source, "base", f"{shown} is a folder, not a scenario YAML file")
+        try:
+            return load_scenario(base)  # a bundled name
+        except ScenarioFileError as error:
+            if "no such file" not in str(error):
+                raise
+            reason = str(error)[len(base) :] if str(error).startswith(base) else f": {error}"
+            raise _say(source, "base", _cut(base, PATH_CHARS) + reason) from None
+    try:
+        return load_scenario(str(path))
+    except ScenarioFileError as error:
+        if path.suffix.lower() in YAML_SUFFIXES:
+            raise  # a problem inside the base file names that file and field
+        reason = str(error).removeprefix(f"{path}: ")
+        kind = f"a {path.suffix} file" if path.suffix else "a file without .yaml"
+        raise _say(
+            source,
+            "base",
+            f"{shown} is not a scenario YAML file ({kind}; read as one: {_cut(reason, 60)})",
+        ) from None
+
+
 def bundled_campaigns() -> dict[str, pathlib.Path]:
     """Bundled campaign names -> their files."""
     return {path.stem: path for path in sorted(CAMPAIGNS_DIR.glob("*.yaml"))}
@@ -445,20 +515,27 @@ def bundled_campaigns() -> dict[str, pathlib.Path]:
 def load_campaign(name_or_path: str) -> Campaign:
     """A campaign from a path or a bundled name; ScenarioFileError on any problem."""
     path = pathlib.Path(name_or_path)
-    if not path.is_file():
+    try:
+        is_file = path.is_file()
+    except OSError as error:  # e.g. a name too long
+        raise _say(name_or_path, None, f"cannot be read ({error.strerror})") from None
+    if not is_file:
         bundled = bundled_campaigns()
         if name_or_path in bundled:
             path = bundled[name_or_path]
         elif path.suffix or "/" in name_or_path:
-            raise ScenarioFileError(f"{name_or_path}: no such file")
+            raise _say(name_or_path, None, "no such file")
         else:
-            raise ScenarioFileError(
-                f"{name_or_path}: no such file or bundled campaign (bundled: {', '.join(bundled)})"
+            raise _say(
+                name_or_path,
+                None,
+                f"no such file or bundled campaign (bundled: {', '.join(bundled)})",
             )
     try:
         text = path.read_text()
     except (OSError, UnicodeDecodeError) as error:
-        raise ScenarioFileError(f"{path}: cannot read: {error}") from None
+        why = error.strerror if isinstance(error, OSError) else error
+        raise _say(path, None, f"cannot read: {why}") from None
     return parse_campaign(text, str(path), path.stem, path.resolve().parent)
 
 
@@ -533,9 +610,7 @@ def plan_runs(campaign: Campaign) -> list[PlannedRun]:
             try:
                 samples.append(draw_sample(sample, k))
             except ScenarioError as error:  # e.g. start_range_m never met
-                raise ScenarioFileError(
-                    f"{campaign.source}: {error.field}: sample {k}: {error.message}"
-                ) from None
+                raise _say(campaign.source, error.field, f"sample {k}", error.message) from None
 
     runs, seen = [], {}
     for case_index, (case_name, case_overrides) in enumerate(cases):
@@ -577,18 +652,20 @@ def plan_runs(campaign: Campaign) -> list[PlannedRun]:
                         (loc for p, loc in locations.items() if _overlap(p, error.field)),
                         error.field,
                     )
-                    which = f"run {len(runs)} ({group}" + (
+                    which = f"run {len(runs)} ({_cut(group, 120)}" + (
                         f", sample {sample_index})" if sample else ")"
                     )
-                    raise ScenarioFileError(
-                        f"{campaign.source}: {where}: {which}: {error.field}: {error.message}"
+                    raise _say(
+                        campaign.source, where, which, quote_path(error.field), error.message
                     ) from None
                 sample_key = [sample.seed, sample_index] if sample else None
                 identifier = run_id(base_data, overrides, sample_key)
                 if identifier in seen:
-                    raise ScenarioFileError(  # only cases can repeat: grid values are unique
-                        f"{campaign.source}: cases[{case_index}]: run {len(runs)} ({group}) is "
-                        f"the same run as run {seen[identifier]} (same overrides)"
+                    raise _say(  # only cases can repeat: grid values are unique
+                        campaign.source,
+                        f"cases[{case_index}]",
+                        f"run {len(runs)} ({_cut(group, 120)}) is the same run as run "
+                        f"{seen[identifier]} (same overrides)",
                     )
                 seen[identifier] = len(runs)
                 runs.append(

@@ -410,6 +410,103 @@ def test_bad_campaign_names_file_and_location(tmp_path, case, text, where):
     assert "\n" not in message
 
 
+_LONG_KEY = "k" * 1000  # a YAML implicit key has at most 1024 characters
+_LONG_NUMBER = "9" * 300  # beyond 309 digits yaml_reader refuses an integer itself
+# (case id, campaign text): keys and values far longer than an error line may quote
+LONG_ECHOES = [
+    ("top_level_key", f"base: coast\n{_LONG_KEY}: 1\n"),
+    ("grid_key", f"base: coast\ngrid: {{{_LONG_KEY}: [1.0]}}\n"),
+    ("grid_subkey", f"base: coast\ngrid: {{chaser.{_LONG_KEY}: [1.0]}}\n"),
+    ("case_key", f"base: coast\ncases: [{{name: a, {_LONG_KEY}: 1}}]\n"),
+    ("sample_key", f"base: coast\nsample: {{count: 2, {_LONG_KEY}: 1}}\n"),
+    ("override_key", f"base: coast\noverrides: {{{_LONG_KEY}: 1}}\ngrid: {{duration_s: [9.0]}}\n"),
+    (
+        "sample_count",
+        (
+            f"base: coast\nsample: {{count: {_LONG_NUMBER}, seed: 1, fields: "
+            "{duration_s: {dist: uniform, low: 10.0, high: 20.0}}}\n"
+        ),
+    ),
+    ("grid_value", f"base: coast\ngrid: {{orbit.gravity: [{'g' * 4000}]}}\n"),
+    ("base_name", f"base: {'b' * 4000}\ngrid: {{duration_s: [9.0]}}\n"),
+    ("key_with_newlines", 'base: coast\n"a\\nb\\nc": 1\n'),
+]
+
+
+@pytest.mark.parametrize("case, text", LONG_ECHOES, ids=[c[0] for c in LONG_ECHOES])
+def test_errors_quote_keys_and_values_cut_short(tmp_path, case, text):
+    path = tmp_path / f"{case}.yaml"
+    path.write_text(text)
+    with pytest.raises(ScenarioFileError) as error:
+        plan_runs(load_campaign(str(path)))
+    message = str(error.value)
+    assert message.startswith(f"{path}: ") and "\n" not in message, message
+    assert len(message) < 500, message
+    for letter in "kg9b":
+        assert letter * 150 not in message, message
+
+
+def test_a_campaign_name_too_long_for_the_file_system_is_one_short_line():
+    with pytest.raises(ScenarioFileError, match="cannot be read") as error:
+        load_campaign("c" * 5000)
+    assert len(str(error.value)) < 300
+
+
+# (case id, file name, content) of `base:` files that are not scenario YAML files
+NOT_SCENARIO_YAML = [
+    ("python_script", "script.py", b"import os\nprint('" + b"hello " * 500 + b"')\n"),
+    ("python_def", "helper.py", b"def f(): pass\n" * 200),
+    ("binary", "model.bin", b"\x7fELF\x02\x01\x01\x00" + bytes(range(256)) * 40),
+    ("binary_named_yaml", "data.yaml", b"\x00\x01\x02binary" * 100),
+    ("not_utf8_named_yaml", "latin.yaml", b"description: caf\xe9 " * 100),
+]
+
+
+@pytest.mark.parametrize(
+    "case, name, content", NOT_SCENARIO_YAML, ids=[c[0] for c in NOT_SCENARIO_YAML]
+)
+def test_a_base_that_is_not_a_scenario_yaml_file_is_said_to_be_one(tmp_path, case, name, content):
+    (tmp_path / name).write_bytes(content)
+    campaign = tmp_path / "c.yaml"
+    campaign.write_text(f"base: {name}\ngrid: {{duration_s: [9.0]}}\n")
+    with pytest.raises(ScenarioFileError) as error:
+        load_campaign(str(campaign))
+    message = str(error.value)
+    assert message.startswith(f"{campaign}: base: {tmp_path / name} is not a scenario YAML file")
+    assert "\n" not in message and len(message) < 300, message
+    assert "hello hello" not in message and "pass def" not in message, message
+
+
+def test_a_base_that_is_a_folder_is_said_to_be_one(tmp_path):
+    (tmp_path / "scenarios").mkdir()
+    campaign = tmp_path / "c.yaml"
+    campaign.write_text("base: scenarios\ngrid: {duration_s: [9.0]}\n")
+    with pytest.raises(ScenarioFileError, match=r"base: .*scenarios is a folder, not a scenario"):
+        load_campaign(str(campaign))
+
+
+def test_a_base_yaml_file_that_is_a_scenario_still_loads_and_its_errors_name_it(tmp_path):
+    (tmp_path / "ok.txt").write_text("duration_s: 9.0\n")  # any name, if it reads as one
+    campaign = tmp_path / "c.yaml"
+    campaign.write_text("base: ok.txt\ngrid: {chaser.mass_kg: [400.0]}\n")
+    assert load_campaign(str(campaign)).base.duration_s == 9.0
+    (tmp_path / "bad.yaml").write_text("chaser: {mass_kg: heavy}\n")
+    campaign.write_text("base: bad.yaml\ngrid: {duration_s: [9.0]}\n")
+    with pytest.raises(ScenarioFileError, match=r"bad\.yaml: chaser\.mass_kg: expected a number"):
+        load_campaign(str(campaign))
+
+
+def test_cli_base_naming_a_python_file_is_one_line_exit_2(tmp_path):
+    (tmp_path / "tool.py").write_text("import sys\n" + "print('x' * 80)\n" * 50)
+    campaign = tmp_path / "c.yaml"
+    campaign.write_text("base: tool.py\ngrid: {duration_s: [9.0]}\n")
+    process = run_rpod("sweep", str(campaign), "--out", str(tmp_path / "out"), cwd=tmp_path)
+    assert process.returncode == 2, process.stderr
+    lines = process.stderr.strip().splitlines()
+    assert len(lines) == 1 and "tool.py is not a scenario YAML file (a .py file" in lines[0], lines
+    assert not (tmp_path / "out").exists()
+
+
 def test_seed_without_sample_block_is_an_error(tmp_path):
     campaign = campaign_from("base: coast\ngrid: {chaser.mass_kg: [1.0]}\n", tmp_path)
     with pytest.raises(ScenarioFileError, match="sample.seed"):
