@@ -2,29 +2,63 @@
 
 `rpod.scenarios.cli` imports pydrake and numpy at its top, 1-3 s before its `main` and the
 handlers in it exist; a Ctrl-C meanwhile printed Python's KeyboardInterrupt traceback (40-50
-lines of import machinery). This module imports nothing but the standard library's `signal`
-and `sys` (already loaded by the interpreter) and imports the command line inside `main`, so a
-KeyboardInterrupt raised while it loads, or anywhere `cli.main` does not catch one (parsing
-the arguments), ends as `cli.main` ends one: `rpod: interrupted` on stderr, exit status 130.
+lines of import machinery), or, when it landed inside a compiled module's initialisation,
+pybind11's `ImportError: initialization failed` with the KeyboardInterrupt as its cause.
+
+So this module imports nothing but what the interpreter has already loaded (os, signal, sys),
+and while it imports the command line a Ctrl-C does not raise at all: the handler says
+`rpod: interrupted` on stderr and ends the process at once with exit status 130 (nothing has
+been written yet, so there is nothing to clean up). A SIGINT that the parent set to be ignored
+(a background job of a non-interactive shell) stays ignored. Once the command line is loaded
+Python's own handler is back, and `cli.main` turns a KeyboardInterrupt into the same line and
+status, cleaning up what a run started; one it does not catch (raised while the arguments are
+parsed, or an interrupted import inside a command) ends here the same way.
 Does not own: the command line (cli.py), which `python -m rpod.scenarios.cli` still runs.
 """
 
+import os
 import signal
 import sys
 
 EXIT_INTERRUPTED = 128 + signal.SIGINT  # 130, as a shell reports a Ctrl-C
+MESSAGE = "rpod: interrupted"
+
+
+def _interrupted_while_loading(signum, frame) -> None:
+    os.write(sys.stderr.fileno(), f"{MESSAGE}\n".encode())
+    os._exit(EXIT_INTERRUPTED)
+
+
+def _an_interrupt(error: BaseException) -> bool:
+    """True when error is a KeyboardInterrupt, or was raised because of one (pybind11 turns a
+    KeyboardInterrupt during a compiled module's initialisation into an ImportError)."""
+    seen = set()
+    while error is not None and id(error) not in seen:
+        if isinstance(error, KeyboardInterrupt):
+            return True
+        seen.add(id(error))
+        error = error.__cause__ or error.__context__
+    return False
 
 
 def main(argv=None) -> int:
     """Entry point of the `rpod` console script (pyproject.toml, [project.scripts])."""
+    loading = signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    if loading:
+        signal.signal(signal.SIGINT, _interrupted_while_loading)
     try:
         from rpod.scenarios.cli import main as cli_main
-
+    finally:
+        if loading:
+            signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
         return cli_main(argv)
-    except KeyboardInterrupt as interrupt:
+    except (KeyboardInterrupt, ImportError) as error:
+        if not _an_interrupt(error):
+            raise
         signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C must not cut this line
-        print(f"rpod: {getattr(interrupt, 'message', 'interrupted')}", file=sys.stderr)
-        return getattr(interrupt, "exit_status", EXIT_INTERRUPTED)
+        print(f"rpod: {getattr(error, 'message', 'interrupted')}", file=sys.stderr)
+        return getattr(error, "exit_status", EXIT_INTERRUPTED)
 
 
 if __name__ == "__main__":
