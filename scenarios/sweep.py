@@ -301,26 +301,85 @@ def _start_local_cluster(workers: int | None, stop: _StopSignals):
             raise
 
 
+def _cut(text, limit: int = 200) -> str:
+    """text on one line, cut to `limit` characters (an address or a detail in an error line)."""
+    text = " ".join(str(text).split())
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _probe_scheduler(scheduler: str, timeout_s: float) -> None:
+    """Returns once a Dask server at the address has answered Dask's handshake; raises
+    TimeoutError when none has within timeout_s, or the error of the attempt (OSError,
+    ValueError for a bad address, ...).
+
+    `distributed.Client(address, timeout=...)` bounds the TCP connect but not the handshake
+    read after it (distributed.comm.core.connect awaits `comm.read()` with no timeout): a port
+    that accepts and says nothing (a plain TCP server, an HTTP server waiting for a request)
+    kept `rpod sweep --scheduler` waiting forever. This attempt has one deadline for all of it,
+    in an event loop of its own, before the Client is made.
+    """
+    import asyncio
+
+    from distributed.comm import connect
+    from distributed.security import Security
+
+    async def attempt():
+        comm = await connect(
+            scheduler, timeout=timeout_s, **Security().get_connection_args("client")
+        )
+        await comm.close()
+
+    async def bounded():
+        await asyncio.wait_for(attempt(), timeout_s)
+
+    asyncio.run(bounded())
+
+
+def _accepts_connections(scheduler: str, timeout_s: float) -> bool:
+    """True when a TCP connection to the (tcp:// or tls://) address is accepted."""
+    import socket
+
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    try:
+        scheme, location = parse_address(scheduler)
+        if scheme not in ("tcp", "tls"):
+            return False
+        with socket.create_connection(parse_host_port(location), timeout=timeout_s):
+            return True
+    except (OSError, ValueError):
+        return False
+
+
 def _connect_scheduler(scheduler: str, connect_timeout_s: float):
-    """A client of an existing scheduler; ScenarioFileError when it cannot be used."""
+    """A client of an existing scheduler; ScenarioFileError when it cannot be used, within
+    about connect_timeout_s whatever is at the address (see _probe_scheduler)."""
     from distributed import Client
 
     _quiet_dask()
+    label = f"--scheduler {_cut(scheduler)}"
     try:
+        _probe_scheduler(scheduler, connect_timeout_s)
         client = Client(scheduler, timeout=connect_timeout_s)
     except Exception as error:  # noqa: BLE001 - OSError, TimeoutError, ValueError (bad address)
+        if isinstance(error, TimeoutError) and _accepts_connections(
+            scheduler, min(connect_timeout_s, 2.0)
+        ):
+            raise ScenarioFileError(
+                f"{label}: not a Dask scheduler: something accepts connections there but did "
+                f"not answer as one within {connect_timeout_s:g} s"
+            ) from None
         detail = (str(error).strip().splitlines() or [type(error).__name__])[0]
         raise ScenarioFileError(
-            f"--scheduler {scheduler}: no Dask scheduler answered within "
-            f"{connect_timeout_s:g} s ({detail})"
+            f"{label}: no Dask scheduler answered within {connect_timeout_s:g} s "
+            f"({_cut(detail, 120)})"
         ) from None
     try:
         client.wait_for_workers(1, timeout=connect_timeout_s)
     except Exception:  # noqa: BLE001 - a timeout, or the scheduler went away
         client.close()
         raise ScenarioFileError(
-            f"--scheduler {scheduler}: the scheduler has no workers (none joined within "
-            f"{connect_timeout_s:g} s)"
+            f"{label}: the scheduler has no workers (none joined within {connect_timeout_s:g} s)"
         ) from None
     return client
 
