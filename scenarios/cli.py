@@ -196,7 +196,9 @@ def _rerun(campaign, runs, wanted: str, out_dir: pathlib.Path, args) -> int:
 def _cmd_report(args) -> int:
     from rpod.scenarios.report import write_report
 
-    text, plots = write_report(args.results, out_dir=args.out, metrics=args.metrics)
+    text, plots = write_report(
+        args.results, out_dir=args.out, metrics=args.metrics, overwrite=args.overwrite
+    )
     print(text)
     if plots:
         print(f"{len(plots)} plots -> {plots[0].parent}")
@@ -362,6 +364,12 @@ def make_parser() -> argparse.ArgumentParser:
     report = commands.add_parser("report", help="summarise a campaign's results, write plots")
     report.add_argument("results", help="a campaign output folder (or its results.sqlite)")
     report.add_argument("--out", help="plot folder (default: RESULTS/report)")
+    report.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="write into --out even if it is a folder rpod report did not write (its files "
+        "named as the report's are replaced; nothing else is touched)",
+    )
     report.add_argument(
         "--metrics",
         type=lambda text: [m for m in text.split(",") if m],

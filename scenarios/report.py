@@ -15,9 +15,24 @@ status is `ok`. A failed run has no trustworthy metrics: a
 timeout or crash has none, and a simulation that failed stopped early. A boolean metric
 (e.g. `hold_reached`) is reported as the share of runs where it is true. Plots use
 matplotlib's object API (Figure, no pyplot), so they are safe in any process.
+
+The output folder (`--out`, default RESULTS/report). A report writes report.md and its plots
+(.png) into the folder, replacing files of the same names, and last a manifest, `.rpod-output`
+(JSON: {"written_by": "rpod", "command": "report", "format": 1, "entries": [...]}, what rpod
+report has written there, the format of `rpod run`'s manifest, rpod.scenarios.run). As `rpod
+run` does, it writes only where it may replace what is there: a folder that does not exist (it
+is made), an empty one, or one rpod report wrote. That is a folder whose report manifest lists
+everything in it but report.md and .png files at its top (what a report writes; one stopped
+before its manifest leaves some unlisted), or, with no manifest, one holding report.md and
+otherwise only .png files (a report from before the manifest). Any other folder is refused,
+with one line and exit status 2, unless `overwrite` (`--overwrite`) is given; even then the
+report only adds and replaces its own file names and lists only them, so the folder stays
+somebody else's. Nothing is ever deleted.
 """
 
+import json
 import math
+import os
 import pathlib
 import re
 
@@ -35,6 +50,10 @@ from rpod.scenarios.store import (
 )
 
 MAX_GROUPS_PER_HISTOGRAM = 8
+MANIFEST = ".rpod-output"  # the name of `rpod run`'s manifest (rpod.scenarios.run.MANIFEST)
+MANIFEST_FORMAT = 1
+REPORT_TEXT = "report.md"
+SHOWN_NAMES = 3  # names of foreign files said in a refusal
 
 
 def _is_number(value) -> bool:
@@ -299,16 +318,114 @@ def read_results(results) -> tuple[dict, list[dict]]:
         return store.meta(), store.rows()
 
 
-def write_report(results, out_dir=None, metrics: list[str] | None = None):
+def _cut(text, limit: int = 200) -> str:
+    text = " ".join(str(text).split())
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _read_manifest(folder: pathlib.Path) -> set[str] | None:
+    """The entries of a report manifest in folder, or None (absent, not one, unreadable)."""
+    path = folder / MANIFEST
+    try:
+        if not path.is_file() or path.is_symlink() or path.stat().st_size > 10_000_000:
+            return None
+        manifest = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+    if not (
+        isinstance(manifest, dict)
+        and manifest.get("written_by") == "rpod"
+        and manifest.get("command") == "report"
+        and isinstance(manifest.get("entries"), list)
+    ):
+        return None
+    return {entry for entry in manifest["entries"] if isinstance(entry, str)}
+
+
+def _entries(folder: pathlib.Path) -> list[str]:
+    """Every file and folder under folder, relative and "/"-separated (links not followed)."""
+
+    def raise_error(error):
+        raise error
+
+    entries = []
+    for root, dirs, files in os.walk(folder, onerror=raise_error):
+        relative = pathlib.Path(root).relative_to(folder)
+        entries += [(relative / name).as_posix() for name in sorted(dirs) + sorted(files)]
+    return entries
+
+
+def _a_report_file(entry: str, folder: pathlib.Path) -> bool:
+    """report.md or a .png file at the folder's top: what a report writes."""
+    path = folder / entry
+    return (
+        "/" not in entry
+        and (entry == REPORT_TEXT or entry.endswith(".png"))
+        and path.is_file()
+        and not path.is_symlink()
+    )
+
+
+def check_report_folder(out_dir: pathlib.Path, overwrite: bool = False) -> set[str]:
+    """The entries rpod report has written in out_dir (module docstring, "The output folder"),
+    empty for a new or empty folder; ScenarioFileError (one line naming --out) for a folder rpod
+    report did not write, unless `overwrite`. What is not a folder is left to make_folder."""
+    label = f"--out {_cut(out_dir)}"
+    if not out_dir.is_dir():
+        return set()
+    listed = _read_manifest(out_dir)
+    try:
+        entries = _entries(out_dir)
+    except OSError as error:
+        raise ScenarioFileError(f"{label}: cannot be read: {error.strerror or error}") from None
+    if listed is None and REPORT_TEXT not in entries and entries:
+        foreign = entries  # no manifest and no report.md: not a report folder
+    else:
+        foreign = [
+            entry
+            for entry in entries
+            if entry != MANIFEST
+            and entry not in (listed or set())
+            and not _a_report_file(entry, out_dir)
+        ]
+    if not foreign:
+        return (listed or set()) | {e for e in entries if _a_report_file(e, out_dir)}
+    if overwrite:
+        return listed or set()
+    names = ", ".join(_cut(repr(name), 60) for name in foreign[:SHOWN_NAMES])
+    more = ", ..." if len(foreign) > SHOWN_NAMES else ""
+    raise ScenarioFileError(
+        f"{label}: is a folder that rpod report did not write (it holds {names}{more}); a "
+        f"report replaces its files of the same names, so choose another --out, or pass "
+        f"--overwrite to write the report into this folder"
+    )
+
+
+def _write_manifest(out_dir: pathlib.Path, entries: set[str]) -> None:
+    manifest = {
+        "written_by": "rpod",
+        "command": "report",
+        "format": MANIFEST_FORMAT,
+        "entries": sorted(entries),
+    }
+    staging = out_dir / f"{MANIFEST}.partial-{os.getpid()}"
+    staging.write_text(json.dumps(manifest, indent=1) + "\n")
+    os.replace(staging, out_dir / MANIFEST)
+
+
+def write_report(results, out_dir=None, metrics: list[str] | None = None, overwrite: bool = False):
     """(summary text, plot paths); writes report.md and the plots into out_dir.
 
-    The store is only read (see store.py); a bad --out, or one that cannot be written, is a
-    ScenarioFileError.
+    The store is only read (see store.py); a bad --out, one that cannot be written, or an
+    existing folder rpod report did not write (unless `overwrite`; module docstring) is a
+    ScenarioFileError, raised before anything is written.
 
     Args:
         results: a campaign output folder or its results.sqlite.
         out_dir: where to write (default: <results folder>/report).
         metrics: metrics to summarise (default: every scalar metric of the ok runs).
+        overwrite: write into an existing folder that rpod report did not write (`--overwrite`),
+            replacing its files of the same names.
     """
     meta, rows = read_results(results)
     names = metric_names(rows)
@@ -321,13 +438,16 @@ def write_report(results, out_dir=None, metrics: list[str] | None = None):
             )
         names = metrics
     out_dir = pathlib.Path(out_dir) if out_dir else store_path(results).parent / "report"
+    written = check_report_folder(out_dir, overwrite)
     make_folder(out_dir)
     text = summary_text(meta, rows, names)
     try:
-        (out_dir / "report.md").write_text("```\n" + text + "\n```\n")
+        (out_dir / REPORT_TEXT).write_text("```\n" + text + "\n```\n")
         plots = _histograms(rows, names, out_dir) + _grid_maps(meta, rows, names, out_dir)
         for plugin in controller_seam.controller_plugins():  # e.g. a paper's figures
             plots += plugin.campaign_figures(rows, out_dir)
+        written |= {REPORT_TEXT} | {pathlib.Path(plot).name for plot in plots}
+        _write_manifest(out_dir, {e for e in written if os.path.lexists(out_dir / e)})
     except OSError as error:
         raise ScenarioFileError(
             f"--out {out_dir}: cannot write the report: {error.strerror or error}"
