@@ -175,9 +175,6 @@ def test_shift_multipliers_moves_every_block_one_interval_on(transcription):
     assert shifted_g[: 21 * 7].tolist() == lam_g[21 : 21 * 8].tolist()
 
 
-@pytest.mark.skipif(
-    shutil.which("gcc") is None and shutil.which("cc") is None, reason="no C compiler"
-)
 class _Said(logging.Handler):
     """The messages of one logger (rpod run's own handler stops their propagation)."""
 
@@ -189,6 +186,9 @@ class _Said(logging.Handler):
         self.messages.append(record.getMessage())
 
 
+@pytest.mark.skipif(
+    shutil.which("gcc") is None and shutil.which("cc") is None, reason="no C compiler"
+)
 def test_compiled_derivatives_equal_the_virtual_machines(model, tmp_path, monkeypatch):
     """The C code (compiled once into the cache) computes the same numbers as CasADi's VM;
     the compile is said when it starts (rpod run is silent for its ~30-80 s), once."""

@@ -53,7 +53,7 @@ def test_sqp_converges_from_the_sec_iv_start_at_the_papers_horizon(sqp_solution)
 def test_ipopt_started_at_the_sqp_answer_finds_nothing_better(sqp_solution):
     """IPOPT (limited-memory Hessian) cannot converge from the cold start (coupled_nmpc's
     docstring), but started at the SQP's answer it stays there: the two agree on the optimum."""
-    params, sqp, x0, result = sqp_solution
+    params, _, x0, result = sqp_solution
     ipopt = cn.CoupledNmpc(
         params, settings=cn.CoupledNmpcSettings(solver="ipopt", max_iterations=40, tolerance=1e-3)
     )
@@ -67,7 +67,7 @@ def test_ipopt_started_at_the_sqp_answer_finds_nothing_better(sqp_solution):
 def test_real_time_iterations_on_one_problem_reach_the_sqp_answer(sqp_solution):
     """RTI's step is an SQP step: repeated on the same x0, from its own answer, it converges to
     the SQP's fixed point."""
-    params, sqp, x0, solved = sqp_solution
+    params, _, x0, solved = sqp_solution
     rti = cn.CoupledNmpc(params, settings=cn.CoupledNmpcSettings(solver="rti"))
     guess = cn.NmpcResult(**{**solved.__dict__, "u": 0.9 * solved.u})
     errors = []
@@ -107,9 +107,8 @@ def _fly(weights: cr.CoupledNmpcWeights, solver: str, steps: int) -> list[np.nda
     for _ in range(steps):
         result = nmpc.solve(x, warm_start=warm)
         assert result.usable, result.solver_message
-        u = result.u[0]
         x = solve_ivp(
-            lambda _, y: cr.dynamics(y, u, params),
+            lambda _, y, u=result.u[0]: cr.dynamics(y, u, params),  # this step's input, bound
             (0.0, nmpc.interval_s),
             x,
             method="DOP853",
