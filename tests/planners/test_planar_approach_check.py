@@ -1,27 +1,17 @@
 """The independent checker of paper 003's approach plans (rpod.planners.planar_approach_check):
 its own teeth on the Sec. V-A plan made faulty (keep-out, wrench, eq. 7, the heading in State
-II)."""
+II). The plan is the session's (tests/planners/conftest.py: sec_v_a, from this X0)."""
 
 import dataclasses
 import math
 
 import numpy as np
-import pytest
 from pydrake.trajectories import PiecewisePolynomial
 
 from rpod.models import planar_approach as pa
-from rpod.planners.planar_approach import PlanarApproachConfig, plan_approach
 from rpod.planners.planar_approach_check import check_plan
 
 X0 = np.array([1.0, 0.0, 0.0, 0.0, 0.0, 0.0])  # Sec. V-A: (1.0, 0.0) m, at rest
-
-
-@pytest.fixture(scope="module")
-def sec_v_a():
-    """Sec. V-A: theta_approach = 3 pi / 4, omega = 0.1 rad/s, 0.3 m target; a 0.3 m, 10 kg
-    chaser with planar_8 thrusters of 0.3 N (the config's defaults); three candidates."""
-    config = PlanarApproachConfig()
-    return config, plan_approach(config, X0)
 
 
 def test_the_checker_finds_violations(sec_v_a):

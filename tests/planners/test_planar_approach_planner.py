@@ -1,6 +1,7 @@
 """Paper 003's approach planner, the front door (rpod.planners.planar_approach): the duration
 candidates by hand, the Sec. V-A plan checked by the independent checker, the search over
-candidates, the trajectories, failures as statuses and the config."""
+candidates, the trajectories, failures as statuses and the config. The Sec. V-A plan is the
+session's (tests/planners/conftest.py: sec_v_a, from this X0), shared with the checker's tests."""
 
 import dataclasses
 import math
@@ -20,14 +21,6 @@ from rpod.planners.planar_approach import (
 from rpod.planners.planar_approach_check import check_plan
 
 X0 = np.array([1.0, 0.0, 0.0, 0.0, 0.0, 0.0])  # Sec. V-A: (1.0, 0.0) m, at rest
-
-
-@pytest.fixture(scope="module")
-def sec_v_a():
-    """Sec. V-A: theta_approach = 3 pi / 4, omega = 0.1 rad/s, 0.3 m target; a 0.3 m, 10 kg
-    chaser with planar_8 thrusters of 0.3 N (the config's defaults); three candidates."""
-    config = PlanarApproachConfig()
-    return config, plan_approach(config, X0)
 
 
 def test_duration_candidates_by_hand():
