@@ -3,7 +3,8 @@ retried, a second sweep or a bad --out refused before any cluster starts, a Ctrl
 local cluster starts, and the local cluster's security (TLS, no HTTP server).
 
 Processes run in their own sessions and are killed with their groups at teardown
-(conftest.spawn); every wait has a timeout, and no test asserts a duration.
+(conftest.spawn, or the module's `hanging_sweep`, which the tests that only look at a running
+sweep share); every wait has a timeout, and no test asserts a duration.
 """
 
 import asyncio
@@ -23,6 +24,7 @@ from campaign_helpers import (
     CLI_TIMEOUT_S,
     SLOW_COAST_CAMPAIGN,
     SMALL_CAMPAIGN,
+    kill_group,
     rpod_command,
     run_rpod,
     store_counts,
@@ -57,6 +59,31 @@ def start_sweep(spawn, tmp_path, text, *args, env=None, name="campaign"):
             stdout=out,
             stderr=err,
         )
+
+
+@pytest.fixture(scope="module")
+def hanging_sweep(tmp_path_factory):
+    """(driver, folder, out): one `rpod sweep` of HANG_CAMPAIGN on 2 local workers, both runs
+    pending for ever, shared by the tests that only look at a running sweep (a second sweep
+    refused, its servers probed); killed with its group at the module's end."""
+    folder = tmp_path_factory.mktemp("hanging")
+    campaign = folder / "campaign.yaml"
+    campaign.write_text(HANG_CAMPAIGN)
+    out = folder / "out"
+    with open(folder / "campaign.out", "w") as stdout, open(folder / "campaign.err", "w") as err:
+        driver = subprocess.Popen(
+            rpod_command("sweep", str(campaign), "--out", str(out), "--workers", "2"),
+            cwd=folder,
+            env=HANG_ENV,
+            stdout=stdout,
+            stderr=err,
+            start_new_session=True,
+        )
+    try:
+        wait_until(lambda: store_counts(out / STORE_NAME)["pending"] == 2, 240, "the sweep to run")
+        yield driver, folder, out
+    finally:
+        kill_group(driver)
 
 
 def group_gone(pgid: int) -> bool:
@@ -243,11 +270,10 @@ def test_cli_sweep_out_that_cannot_be_a_folder_exits_2(tmp_path, out, message):
     assert (tmp_path / "afile.txt").read_text() == "keep me"
 
 
-def test_a_second_sweep_into_a_busy_folder_is_refused_in_one_line(spawn, tmp_path):
-    out = tmp_path / "out"
-    first = start_sweep(spawn, tmp_path, HANG_CAMPAIGN, "--out", str(out), env=HANG_ENV)
-    wait_until(lambda: (out / STORE_NAME).exists(), 240, "the first sweep's store")
-    second = run_rpod("sweep", str(tmp_path / "campaign.yaml"), "--out", str(out), cwd=tmp_path)
+def test_a_second_sweep_into_a_busy_folder_is_refused_in_one_line(hanging_sweep):
+    first, folder, out = hanging_sweep
+    assert (out / STORE_NAME).exists()  # the first sweep's store
+    second = run_rpod("sweep", str(folder / "campaign.yaml"), "--out", str(out), cwd=folder)
     assert "another `rpod sweep` is writing to this folder" in one_line_error(second)
     assert first.poll() is None  # the first one goes on
 
@@ -271,10 +297,15 @@ def starting_workers(pid: int) -> list[psutil.Process]:
     return found
 
 
+# One Ctrl-C and the SIGTERM by default; the Ctrl-C 0.2 s later (the same signal, the same
+# assertions) is slow.
 @pytest.mark.parametrize(
     "signum, whole_group, delay_s",
-    [(signal.SIGINT, True, 0.0), (signal.SIGINT, True, 0.2), (signal.SIGTERM, False, 0.1)],
-    ids=["ctrl_c_at_first_worker", "ctrl_c_soon_after", "sigterm"],
+    [
+        pytest.param(signal.SIGINT, True, 0.0, id="ctrl_c_at_first_worker"),
+        pytest.param(signal.SIGINT, True, 0.2, id="ctrl_c_soon_after", marks=pytest.mark.slow),
+        pytest.param(signal.SIGTERM, False, 0.1, id="sigterm"),
+    ],
 )
 def test_a_stop_while_the_local_cluster_starts_is_honoured(
     spawn, tmp_path, signum, whole_group, delay_s
@@ -353,14 +384,10 @@ def http_answer(port: int) -> bytes:
             return b""
 
 
-def test_local_cluster_needs_its_certificate_and_serves_no_http(spawn, tmp_path):
+def test_local_cluster_needs_its_certificate_and_serves_no_http(hanging_sweep):
     from distributed.security import Security
 
-    out = tmp_path / "out"
-    driver = start_sweep(
-        spawn, tmp_path, HANG_CAMPAIGN, "--out", str(out), "--workers", "2", env=HANG_ENV
-    )
-    wait_until(lambda: store_counts(out / STORE_NAME)["pending"] == 2, 240, "the sweep to run")
+    driver, _, _ = hanging_sweep  # its 2 runs pending: the cluster is up
     # The scheduler and the 2 nannies (in the driver) and the 2 workers: 5 servers.
     ports = wait_until(
         lambda: (found := listening(driver.pid)) and sum(map(len, found.values())) >= 5 and found,
