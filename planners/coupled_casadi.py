@@ -25,6 +25,7 @@ import logging
 import os
 import pathlib
 import shutil
+import stat
 import subprocess
 import tempfile
 import time
@@ -161,12 +162,103 @@ def cache_dir() -> pathlib.Path:
 
 
 _LOG = logging.getLogger("rpod.compile")
-"""Says when a one-time compile starts (rpod run shows it: the run is silent meanwhile)."""
+"""Says when a one-time compile starts (rpod run shows it: the run is silent meanwhile), and
+warns when the cache cannot be used (the derivatives are then evaluated by CasADi's virtual
+machine: the same numbers, ~6x slower)."""
 
 COMPILE_FLAGS = ("-O1", "-fPIC", "-shared")
 """C compiler flags for the derivative code. Measured on one interval's Hessian (2 shared
 cores): -O1 compiles in ~28 s and runs it in ~0.17 ms, -O2 in ~79 s and ~0.20 ms; -O0 (on the
 earlier 45-direction Hessian) in ~18 s and ~4 ms."""
+
+_VIRTUAL_MACHINE = "derivatives evaluated by CasADi's virtual machine"
+_CHECKSUM_SUFFIX = ".sha256"
+
+
+class CacheError(Exception):
+    """The derivative cache cannot be trusted or used; the message says why."""
+
+
+def private_cache_dir() -> pathlib.Path:
+    """cache_dir(), made if missing (mode 0o700) and checked: a folder of this user that no
+    other user can write. CacheError otherwise; OSError when it cannot be made or read.
+
+    A library in the cache is loaded into the process (dlopen runs its code), so a cache another
+    user can write is refused, not used. A folder of this user's that others can read (an older
+    rpod made it 0o755) is made private.
+    """
+    folder = cache_dir()
+    folder.mkdir(mode=0o700, parents=True, exist_ok=True)
+    info = os.stat(folder)
+    if not stat.S_ISDIR(info.st_mode):
+        raise CacheError("it is not a folder")
+    if info.st_uid != os.geteuid():
+        raise CacheError(f"it belongs to another user (uid {info.st_uid})")
+    if info.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
+        raise CacheError(f"other users can write to it (mode {stat.S_IMODE(info.st_mode):o})")
+    if stat.S_IMODE(info.st_mode) & 0o077:
+        os.chmod(folder, 0o700)
+    return folder
+
+
+def _sha256(path: pathlib.Path) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def checksum_path(library: pathlib.Path) -> pathlib.Path:
+    """The file beside a compiled library that holds its SHA-256 (hex), written after its
+    compile; the library is loaded only when its bytes match it."""
+    return library.with_name(library.name + _CHECKSUM_SUFFIX)
+
+
+def verified(library: pathlib.Path) -> bool:
+    """True when the library's bytes match the checksum written beside it; False when it is
+    missing, has no checksum (not rpod's compile: a file put there), or differs from it
+    (truncated or corrupt). A truncated library, loaded, kills the process with SIGBUS."""
+    try:
+        with open(checksum_path(library)) as handle:
+            expected = handle.read(100).strip()
+        return _sha256(library) == expected
+    except FileNotFoundError:
+        return False
+
+
+def _build(compiler: str, source: bytes, name: str, library: pathlib.Path) -> str | None:
+    """Compiles source into library (and its checksum) in its folder; None, or why it failed.
+
+    The compiler runs in a temporary folder beside the library, on relative file names, so the
+    same source gives the same bytes (no temporary path in the library); the checksum, then the
+    library, are moved into place by rename, so parallel workers never load half a file.
+    """
+    with tempfile.TemporaryDirectory(dir=library.parent) as folder:
+        pathlib.Path(folder, f"{name}.c").write_bytes(source)
+        run = subprocess.run(
+            [compiler, *COMPILE_FLAGS, f"{name}.c", "-o", library.name, "-lm"],
+            cwd=folder,
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+        if run.returncode != 0:
+            return (run.stderr.strip().splitlines() or ["?"])[-1]
+        built = pathlib.Path(folder, library.name)
+        checksum = pathlib.Path(folder, checksum_path(library).name)
+        checksum.write_text(_sha256(built) + "\n")
+        os.replace(checksum, checksum_path(library))
+        os.replace(built, library)
+    return None
+
+
+def _remove(library: pathlib.Path) -> None:
+    for path in (library, checksum_path(library)):
+        try:
+            path.unlink()
+        except FileNotFoundError:
+            pass
 
 
 def compile_functions(functions: list[ca.Function], name: str) -> tuple[list, str]:
@@ -176,10 +268,16 @@ def compile_functions(functions: list[ca.Function], name: str) -> tuple[list, st
     weight makes new code, never a stale one. Returns (functions, message): the compiled
     `casadi.external` functions, or the given ones (CasADi's virtual machine, the same numbers,
     ~6x slower) and why, when no C compiler is found or compiling fails.
+
+    The cache is trusted only so far (private_cache_dir, verified): a library is loaded only
+    when its SHA-256 matches the one written beside it after its compile. One that does not (a
+    truncated or corrupt file, or one put there under the expected name) is removed and
+    compiled again; when that is impossible, or the cache folder cannot be used at all (a file
+    in its place, not writable, another user's), the virtual machine is used, with one warning.
     """
     compiler = shutil.which(os.environ.get("CC", "gcc")) or shutil.which("cc")
     if compiler is None:
-        return functions, "no C compiler found: derivatives evaluated by CasADi's virtual machine"
+        return functions, f"no C compiler found: {_VIRTUAL_MACHINE}"
     with tempfile.TemporaryDirectory() as folder:
         generator = ca.CodeGenerator(f"{name}.c", {"with_header": False})
         for function in functions:
@@ -188,26 +286,36 @@ def compile_functions(functions: list[ca.Function], name: str) -> tuple[list, st
         source = pathlib.Path(folder, f"{name}.c").read_bytes()
     key = hashlib.sha256(source + " ".join(COMPILE_FLAGS).encode()).hexdigest()[:20]
     library = cache_dir() / f"{name}_{key}.so"
-    if not library.exists():
-        _LOG.info(
-            "compiling the NMPC's derivatives to C, once (~30-80 s; cached in %s)", library.parent
-        )
-        library.parent.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryDirectory(dir=library.parent) as folder:
-            c_file = pathlib.Path(folder, f"{name}.c")
-            c_file.write_bytes(source)
-            built = pathlib.Path(folder, library.name)
-            run = subprocess.run(
-                [compiler, *COMPILE_FLAGS, str(c_file), "-o", str(built), "-lm"],
-                capture_output=True,
-                text=True,
-                check=False,
+    try:
+        library = private_cache_dir() / library.name
+        if os.path.lexists(library) and not verified(library):
+            _remove(library)
+            _LOG.warning(
+                "the cached %s did not match its checksum (truncated, corrupt, or not written "
+                "by rpod): removed, compiled again",
+                library,
             )
-            if run.returncode != 0:
-                reason = (run.stderr.strip().splitlines() or ["?"])[-1]
-                return functions, f"compiling failed ({reason}): CasADi's virtual machine used"
-            os.replace(built, library)  # atomic: parallel workers never load half a file
-    compiled = [ca.external(function.name(), str(library)) for function in functions]
+        if not library.exists():
+            _LOG.info(
+                "compiling the NMPC's derivatives to C, once (~30-80 s; cached in %s)",
+                library.parent,
+            )
+            failure = _build(compiler, source, name, library)
+            if failure is not None:
+                return functions, f"compiling failed ({failure}): CasADi's virtual machine used"
+            if not verified(library):
+                raise CacheError("the library just compiled does not match its checksum")
+        compiled = [ca.external(function.name(), str(library)) for function in functions]
+    except (OSError, CacheError, RuntimeError) as error:  # RuntimeError: CasADi cannot load it
+        why = error.strerror if isinstance(error, OSError) and error.strerror else str(error)
+        why = " ".join(why.split())[:200]
+        _LOG.warning(
+            "the derivative cache %s cannot be used (%s): %s (the same numbers, ~6x slower)",
+            library.parent,
+            why,
+            _VIRTUAL_MACHINE,
+        )
+        return functions, f"cache {library.parent} not used ({why}): {_VIRTUAL_MACHINE}"
     return compiled, f"compiled derivatives {library}"
 
 
@@ -309,7 +417,7 @@ class CasadiTranscription:
             los_slack_weight,
             (n_def, n_gim, n_mag),
         )
-        self.derivatives_message = "derivatives evaluated by CasADi's virtual machine"
+        self.derivatives_message = _VIRTUAL_MACHINE
         if compile:
             derivatives, self.derivatives_message = compile_functions(derivatives, "coupled_nmpc")
         jac_g, hess_lag, grad_f = derivatives
