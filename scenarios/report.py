@@ -371,8 +371,11 @@ def check_report_folder(out_dir: pathlib.Path, overwrite: bool = False) -> set[s
     empty for a new or empty folder; ScenarioFileError (one line naming --out) for a folder rpod
     report did not write, unless `overwrite`. What is not a folder is left to make_folder."""
     label = f"--out {_cut(out_dir)}"
-    if not out_dir.is_dir():
-        return set()
+    try:
+        if not out_dir.is_dir():
+            return set()  # nothing there (made later), or not a folder (make_folder says so)
+    except OSError as error:  # e.g. a name too long
+        raise ScenarioFileError(f"{label}: cannot be used: {error.strerror}") from None
     listed = _read_manifest(out_dir)
     try:
         entries = _entries(out_dir)
@@ -433,8 +436,8 @@ def write_report(results, out_dir=None, metrics: list[str] | None = None, overwr
         unknown = [m for m in metrics if m not in names]
         if unknown:
             raise ScenarioFileError(
-                f"{results}: --metrics: unknown metric(s) {', '.join(unknown)} "
-                f"(known: {', '.join(names) or 'none: no run finished ok'})"
+                f"{_cut(results)}: --metrics: unknown metric(s) {_cut(', '.join(unknown), 120)} "
+                f"(known: {_cut(', '.join(names), 300) or 'none: no run finished ok'})"
             )
         names = metrics
     out_dir = pathlib.Path(out_dir) if out_dir else store_path(results).parent / "report"
@@ -450,6 +453,6 @@ def write_report(results, out_dir=None, metrics: list[str] | None = None, overwr
         _write_manifest(out_dir, {e for e in written if os.path.lexists(out_dir / e)})
     except OSError as error:
         raise ScenarioFileError(
-            f"--out {out_dir}: cannot write the report: {error.strerror or error}"
+            f"--out {_cut(out_dir)}: cannot write the report: {_cut(error.strerror or error)}"
         ) from None
     return text, plots

@@ -89,6 +89,12 @@ def plan_fingerprint(run_ids) -> str:
     return hashlib.sha256("\n".join(sorted(run_ids)).encode()).hexdigest()
 
 
+def _q(path) -> str:
+    """A path for an error line: whole up to 200 characters, then cut ("...")."""
+    text = " ".join(str(path).split())
+    return text if len(text) <= 200 else text[:197] + "..."
+
+
 def store_path(results: pathlib.Path) -> pathlib.Path:
     """The store file of a campaign output folder (or the file itself)."""
     results = pathlib.Path(results)
@@ -116,23 +122,24 @@ def make_folder(path: pathlib.Path, flag: str = "--out") -> list[pathlib.Path]:
     made (no permission, a read-only or virtual file system).
     """
     path = pathlib.Path(path)
-    for parent in [path, *path.parents]:
-        if parent.exists() or parent.is_symlink():
-            if not parent.is_dir():
-                where = "" if parent == path else f"{parent} "
-                raise ScenarioFileError(f"{flag} {path}: {where}is not a folder")
-            break
-    made = [p for p in reversed([path, *path.parents]) if not p.exists()]
+    made = []
     try:
+        for parent in [path, *path.parents]:
+            if parent.exists() or parent.is_symlink():
+                if not parent.is_dir():
+                    where = "" if parent == path else f"{_q(parent)} "
+                    raise ScenarioFileError(f"{flag} {_q(path)}: {where}is not a folder")
+                break
+        made = [p for p in reversed([path, *path.parents]) if not p.exists()]
         path.mkdir(parents=True, exist_ok=True)
-    except OSError as error:
+    except OSError as error:  # no permission, a read-only file system, a name too long
         remove_folders(made)
         raise ScenarioFileError(
-            f"{flag} {path}: cannot create the folder: {error.strerror or error}"
+            f"{flag} {_q(path)}: cannot create the folder: {error.strerror or error}"
         ) from None
     if not os.access(path, os.W_OK | os.X_OK):
         remove_folders(made)
-        raise ScenarioFileError(f"{flag} {path}: cannot write to the folder (no permission)")
+        raise ScenarioFileError(f"{flag} {_q(path)}: cannot write to the folder (no permission)")
     return made
 
 
@@ -187,9 +194,13 @@ class ResultStore:
             results: a campaign output folder or its results.sqlite.
             use_wal: open with mode=ro even when there is no -wal file (see `changed`).
         """
-        path = store_path(results)
-        if not path.is_file():
-            raise ScenarioFileError(f"{results}: no results store ({STORE_NAME}) there")
+        try:
+            path = store_path(results)
+            is_file = path.is_file()
+        except OSError as error:  # e.g. a name too long
+            raise ScenarioFileError(f"{_q(results)}: cannot be read: {error.strerror}") from None
+        if not is_file:
+            raise ScenarioFileError(f"{_q(results)}: no results store ({STORE_NAME}) there")
         store = cls(path, read_only=True, use_wal=use_wal)
         try:
             with store._guard():
@@ -224,10 +235,14 @@ class ResultStore:
     @staticmethod
     def check_compatible(path: pathlib.Path, fingerprint: str, run_count: int) -> None:
         """ScenarioFileError if an existing store at path is damaged or holds a different plan."""
-        if not path.exists():
-            return
-        if not path.is_file():
-            raise ScenarioFileError(f"{path}: --out: is not a results store file")
+        try:
+            if not path.exists():
+                return
+            is_file = path.is_file()
+        except OSError as error:  # e.g. a name too long
+            raise ScenarioFileError(f"--out {_q(path.parent)}: cannot be used: {error.strerror}")
+        if not is_file:
+            raise ScenarioFileError(f"{_q(path)}: --out: is not a results store file")
         with ResultStore.open_existing(path) as store:
             store.check()
             stored, stored_count = store.fingerprint(), store.run_count()

@@ -215,3 +215,14 @@ def test_cli_report_into_a_foreign_folder_exits_2_and_overwrite_writes(tmp_path)
     assert written.returncode == 0, written.stderr
     assert (out / "notes.txt").read_text() == "keep me too"
     assert (out / "report.md").read_text() != "keep me"
+
+
+def test_long_names_in_report_errors_are_cut(tmp_path):
+    results = _store(tmp_path / "results")
+    for out in (tmp_path / ("y" * 4000), tmp_path / ("y" * 4000) / "plots"):
+        with pytest.raises(ScenarioFileError) as error:  # a name too long for the file system
+            report.write_report(results, out_dir=out)
+        assert str(error.value).startswith("--out ") and len(str(error.value)) < 300
+    with pytest.raises(ScenarioFileError, match="unknown metric") as error:
+        report.write_report(results, metrics=["m" * 4000])
+    assert len(str(error.value)) < 500 and "m" * 200 not in str(error.value)
