@@ -1,12 +1,25 @@
 """Fixtures of the campaign tests: processes in their own sessions, killed with their group at
-teardown whatever the outcome; a real Dask cluster on 127.0.0.1; the small campaign run once.
+teardown whatever the outcome; a real Dask cluster on 127.0.0.1; the small campaign run once;
+a sweep whose driver was SIGKILLed mid-campaign, once, handed out as copies.
 Every wait has a bounded timeout.
 """
 
+import os
+import shutil
+import signal
 import subprocess
 
 import pytest
-from campaign_helpers import SMALL_CAMPAIGN, DaskCluster, kill_group, run_rpod
+from campaign_helpers import (
+    SLOW_COAST_CAMPAIGN,
+    SMALL_CAMPAIGN,
+    DaskCluster,
+    kill_group,
+    rpod_command,
+    run_rpod,
+    store_counts,
+    wait_until,
+)
 
 
 @pytest.fixture
@@ -53,3 +66,53 @@ def small_campaign_local(tmp_path_factory):
     )
     assert process.returncode == 0, process.stderr
     return campaign, folder / "out", process
+
+
+def _group_gone(pgid: int) -> bool:
+    try:
+        os.killpg(pgid, 0)
+    except ProcessLookupError:
+        return True
+    return False
+
+
+@pytest.fixture(scope="session")
+def sweep_killed_mid_campaign(tmp_path_factory):
+    """copy() -> (campaign file, output folder): a fresh copy of one sweep's folder (its store,
+    with the results still in its -wal, and every other file) as `kill -9` of the driver left it.
+
+    The sweep (10 coasting runs, 2 local workers) runs once per session: its driver alone is
+    SIGKILLed after two finished runs, while runs are pending, and its workers and runners
+    notice the driver is gone and exit by themselves. Each test gets its own copy, so one can
+    sweep into it again and another can check that a report changes none of its bytes.
+    """
+    folder = tmp_path_factory.mktemp("killed_sweep")
+    campaign = folder / "slow.yaml"
+    campaign.write_text(SLOW_COAST_CAMPAIGN)
+    out = folder / "out"
+    store = out / "results.sqlite"
+    with open(folder / "driver.out", "w") as stdout, open(folder / "driver.err", "w") as stderr:
+        driver = subprocess.Popen(
+            rpod_command("sweep", str(campaign), "--out", str(out), "--workers", "2"),
+            cwd=folder,
+            stdout=stdout,
+            stderr=stderr,
+            start_new_session=True,
+        )
+    try:
+        wait_until(lambda: store_counts(store)["ok"] >= 2, 240, "two finished runs")
+        os.kill(driver.pid, signal.SIGKILL)  # the driver only, as `kill -9 PID` would
+        driver.wait(timeout=30)
+        wait_until(lambda: _group_gone(driver.pid), 60, "the killed driver's workers to exit")
+    finally:
+        kill_group(driver)
+    counts = store_counts(store)
+    assert counts["pending"] > 0, counts  # it really was mid-campaign
+
+    def copy():
+        destination = tmp_path_factory.mktemp("killed_sweep_copy")
+        shutil.copy2(campaign, destination / campaign.name)
+        shutil.copytree(out, destination / "out")  # bytes and mtimes, -wal and -shm too
+        return destination / campaign.name, destination / "out"
+
+    return copy

@@ -7,19 +7,10 @@ still in the -wal), and on empty, truncated, garbage and partly damaged files, w
 and `sweep` both refuse with one line.
 """
 
-import os
-import signal
 import sqlite3
 
 import pytest
-from campaign_helpers import (
-    SLOW_COAST_CAMPAIGN,
-    SMALL_CAMPAIGN,
-    rpod_command,
-    run_rpod,
-    store_counts,
-    wait_until,
-)
+from campaign_helpers import SMALL_CAMPAIGN, run_rpod, store_counts
 
 from rpod.scenarios.campaign import PlannedRun
 from rpod.scenarios.loader import ScenarioFileError
@@ -199,22 +190,13 @@ def test_report_of_a_finished_sweep_changes_nothing(small_campaign_local, tmp_pa
     assert snapshot(out) == before  # results.sqlite's bytes and mtime; no -wal or -shm made
 
 
-def test_report_of_a_sweep_killed_mid_campaign_reads_the_wal_and_changes_nothing(spawn, tmp_path):
-    campaign = tmp_path / "slow.yaml"
-    campaign.write_text(SLOW_COAST_CAMPAIGN)
-    out = tmp_path / "out"
+def test_report_of_a_sweep_killed_mid_campaign_reads_the_wal_and_changes_nothing(
+    sweep_killed_mid_campaign, tmp_path
+):
+    """The folder as `kill -9` of the driver left it after two finished runs (a copy of the
+    session's: conftest.sweep_killed_mid_campaign, shared with test_sweep_local)."""
+    _, out = sweep_killed_mid_campaign()
     store_file = out / STORE_NAME
-    with open(tmp_path / "driver.err", "w") as log:
-        driver = spawn(
-            rpod_command("sweep", str(campaign), "--out", str(out), "--workers", "2"),
-            cwd=tmp_path,
-            stdout=log,
-            stderr=log,
-        )
-    wait_until(lambda: store_counts(store_file)["ok"] >= 2, 240, "two finished runs")
-    os.kill(driver.pid, signal.SIGKILL)
-    driver.wait(timeout=30)
-    wait_until(lambda: _group_gone(driver.pid), 60, "the killed driver's workers to exit")
     counts = store_counts(store_file)
     assert counts["pending"] > 0 and (out / f"{STORE_NAME}-wal").exists(), counts
     before = store_file.read_bytes(), store_file.stat().st_mtime_ns
@@ -227,14 +209,6 @@ def test_report_of_a_sweep_killed_mid_campaign_reads_the_wal_and_changes_nothing
     finished = counts["ok"] + counts["failed"]
     assert sum(line.split()[-1] == "0" for line in group_lines) == finished, group_lines
     assert (store_file.read_bytes(), store_file.stat().st_mtime_ns) == before
-
-
-def _group_gone(pgid: int) -> bool:
-    try:
-        os.killpg(pgid, 0)
-    except ProcessLookupError:
-        return True
-    return False
 
 
 def test_report_of_an_empty_file_exits_2_and_keeps_it_empty(tmp_path):

@@ -173,20 +173,17 @@ def _driver(spawn, campaign, out, tmp_path):
     )
 
 
-def test_sigkill_of_the_driver_then_rerun_loses_and_duplicates_nothing(spawn, tmp_path):
-    campaign = tmp_path / "slow.yaml"
-    campaign.write_text(SLOW_CAMPAIGN)
-    out = tmp_path / "out"
+def test_sigkill_of_the_driver_then_rerun_loses_and_duplicates_nothing(
+    sweep_killed_mid_campaign, tmp_path
+):
+    """The sweep killed (`kill -9` of the driver alone, its workers and runners exited by
+    themselves: conftest.sweep_killed_mid_campaign, shared with test_store_readonly), then
+    swept again into its folder."""
+    campaign, out = sweep_killed_mid_campaign()
     store = out / "results.sqlite"
-    driver = _driver(spawn, campaign, out, tmp_path)
-    wait_until(lambda: store_counts(store)["ok"] >= 2, 240, "two finished runs")
-    os.kill(driver.pid, signal.SIGKILL)  # the driver only, as `kill -9 PID` would
-    driver.wait(timeout=30)
     counts = store_counts(store)
     assert counts["pending"] > 0, counts  # it really was mid-campaign
     finished_before = [r for r in stored_rows(out) if r["status"] != "pending"]
-    # Its workers and runners notice the driver is gone and exit by themselves.
-    wait_until(lambda: _group_gone(driver.pid), 60, "the killed driver's workers to exit")
 
     process = run_rpod("sweep", str(campaign), "--out", str(out), "--workers", "2", cwd=tmp_path)
     assert process.returncode == 0, process.stderr
