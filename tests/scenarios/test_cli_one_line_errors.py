@@ -92,8 +92,16 @@ def test_campaign_with_an_empty_base_file_plans(tmp_path):
     assert [r.overrides for r in runs] == [{"chaser.mass_kg": 400.0}, {"chaser.mass_kg": 500.0}]
 
 
+@pytest.mark.slow
 def test_empty_scenario_file_runs_with_the_defaults(tmp_path):
-    """The README's promise, through the command line: no TypeError traceback, a real run."""
+    """The README's promise, through the command line: no TypeError traceback, a real run.
+
+    Slow (600 s of flight): by default its parts are held by faster tests. An empty file reads
+    as every default (test_empty_and_comment_only_files_mean_every_default; `rpod run FILE`
+    reads a file through that same parse_scenario), and the default flight differs from the
+    bundled hold_point only in its description, duration (600 s against 300 s), log period and
+    RAAN, and the bundled run through the console entry point exits 0 and writes every output
+    (test_run_hold_point.py)."""
     scenario = tmp_path / "empty.yaml"
     scenario.write_text("")
     # Every default: 600 s of the default approach, ~10 s of wall time.
