@@ -50,6 +50,7 @@ def run_dir(tmp_path_factory):
         capture_output=True,
         text=True,
         timeout=600,
+        check=False,
     )
     assert process.returncode == 0, process.stderr
     assert "hold point reached" in process.stdout

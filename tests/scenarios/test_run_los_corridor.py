@@ -28,6 +28,7 @@ def _run(out, scenario, *extra):
         capture_output=True,
         text=True,
         timeout=600,
+        check=False,
     )
 
 

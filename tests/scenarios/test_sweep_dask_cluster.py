@@ -52,12 +52,13 @@ def test_killing_a_worker_mid_campaign_loses_no_run(dask_cluster, spawn, tmp_pat
     campaign = tmp_path / "slow.yaml"
     campaign.write_text(SLOW_CAMPAIGN)
     out = tmp_path / "out"
-    driver = spawn(
-        rpod_command("sweep", str(campaign), "--out", str(out), "--scheduler", cluster.address),
-        cwd=tmp_path,
-        stdout=open(tmp_path / "driver.out", "w"),
-        stderr=open(tmp_path / "driver.err", "w"),
-    )
+    with open(tmp_path / "driver.out", "w") as stdout, open(tmp_path / "driver.err", "w") as err:
+        driver = spawn(
+            rpod_command("sweep", str(campaign), "--out", str(out), "--scheduler", cluster.address),
+            cwd=tmp_path,
+            stdout=stdout,
+            stderr=err,
+        )  # the driver holds its own copies of the two files
     wait_until(lambda: store_counts(out / "results.sqlite")["ok"] >= 2, 240, "two finished runs")
     os.killpg(cluster.workers[0].pid, signal.SIGKILL)  # the worker, its nanny and its runner
     assert store_counts(out / "results.sqlite")["pending"] > 0  # it really was mid-campaign
