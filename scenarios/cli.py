@@ -176,12 +176,13 @@ def _rerun(campaign, runs, wanted: str, out_dir: pathlib.Path, args) -> int:
     OUT/rerun/<run_id>/ (the store is not touched)."""
     from rpod.scenarios.campaign import apply_overrides
     from rpod.scenarios.run import run_to_folder, sigterm_as_interrupt
+    from rpod.scenarios.schema import quote
 
     matches = [run for run in runs if run.run_id.startswith(wanted)] if wanted else []
     if len(matches) != 1:
         why = "matches no run" if not matches else f"matches {len(matches)} runs"
         raise ScenarioFileError(
-            f"--rerun {wanted}: {why} of {campaign.source} ({len(runs)} runs; the ids are in "
+            f"--rerun {quote(wanted)[1:-1]}: {why} of {campaign.source} ({len(runs)} runs; the ids are in "
             f"the store: sqlite3 {out_dir / 'results.sqlite'} 'select run_id, grp from runs')"
         )
     (run,) = matches
@@ -264,6 +265,8 @@ class _OneLineErrorParser(argparse.ArgumentParser):
     """argparse, but a usage error is one stderr line (no usage block) and exit status 2."""
 
     def error(self, message: str):
+        if len(message) > 200:  # argparse quotes the argument whole: a 5,000-digit --seed
+            message = message[:197] + "..."
         self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message} (see `{self.prog} --help`)\n")
 
 

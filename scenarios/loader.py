@@ -16,6 +16,7 @@ import pathlib
 
 from rpod.diagrams.scenario import Scenario, ScenarioError, validate_scenario
 from rpod.scenarios import schema
+from rpod.scenarios.schema import quote_path
 from rpod.scenarios.yaml_reader import YamlError, dump_yaml, parse_yaml
 
 BUNDLED_DIR = pathlib.Path(__file__).resolve().parent / "bundled"
@@ -33,15 +34,20 @@ def bundled_scenarios() -> dict[str, pathlib.Path]:
 def resolve_scenario_path(name_or_path: str) -> pathlib.Path:
     """The file of a scenario given as a path or as a bundled name."""
     path = pathlib.Path(name_or_path)
-    if path.is_file():
-        return path
+    try:
+        if path.is_file():
+            return path
+    except (OSError, ValueError) as error:  # a name too long for the file system, a NUL
+        raise ScenarioFileError(
+            f"{quote_path(name_or_path)}: cannot be a file ({error.strerror if isinstance(error, OSError) else error})"
+        ) from None
     bundled = bundled_scenarios()
     if name_or_path in bundled:
         return bundled[name_or_path]
     if path.suffix or "/" in name_or_path:
-        raise ScenarioFileError(f"{name_or_path}: no such file")
+        raise ScenarioFileError(f"{quote_path(name_or_path)}: no such file")
     raise ScenarioFileError(
-        f"{name_or_path}: no such file or bundled scenario (bundled: {', '.join(bundled)})"
+        f"{quote_path(name_or_path)}: no such file or bundled scenario (bundled: {', '.join(bundled)})"
     )
 
 
