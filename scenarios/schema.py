@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 import math
 import re
 import types
@@ -47,16 +48,29 @@ def record_fields(annotation) -> dict | None:
     DefAttributesUsingSerialize, e.g. SimulatorConfig); None for any other type. A field with
     registry choices (CHOICES_KEY) has the union of the choices registered now, and None."""
     if dataclasses.is_dataclass(annotation) and isinstance(annotation, type):
-        hints = typing.get_type_hints(annotation)
-        for field in dataclasses.fields(annotation):
-            choices = field.metadata.get(CHOICES_KEY)
-            if choices is not None:
-                hints[field.name] = typing.Union[(*choices(), type(None))]
+        hints, registries = _dataclass_hints(annotation)
+        if not registries:
+            return types.MappingProxyType(hints)  # the cached mapping, read-only
+        hints = dict(hints)
+        for name, choices in registries.items():  # read now: plug-ins register at any time
+            hints[name] = typing.Union[(*choices(), type(None))]
         return hints
     fields = getattr(annotation, "__fields__", None)
     if isinstance(annotation, type) and fields is not None:
         return {field.name: field.type for field in fields}
     return None
+
+
+@functools.cache
+def _dataclass_hints(record: type) -> tuple[dict, dict]:
+    """({field: type}, {field: its registry of choices}) of a dataclass, resolved once: a
+    campaign of thousands of runs walks the same few types hundreds of thousands of times."""
+    registries = {
+        field.name: field.metadata[CHOICES_KEY]
+        for field in dataclasses.fields(record)
+        if CHOICES_KEY in field.metadata
+    }
+    return typing.get_type_hints(record), registries
 
 
 def is_record(annotation) -> bool:
