@@ -7,6 +7,7 @@ main; sys.exit(main())`) and says when it has reached that line, so the Ctrl-C l
 import of the command line whatever the machine's load, not in the interpreter's own start.
 """
 
+import contextlib
 import pathlib
 import re
 import signal
@@ -26,11 +27,27 @@ LAUNCH = (
 )
 
 
+@contextlib.contextmanager
+def _sigint_deliverable():
+    """SIGINT neither blocked nor ignored while the child is started, as a shell starts it: a
+    child inherits its parent thread's signal mask and an ignored SIGINT, and in the full suite
+    an earlier test had left the test process so (a local Dask worker built in-process ignores
+    SIGINT): the Ctrl-C then never arrived (empty stderr, exit 0)."""
+    mask = signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    handler = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, handler)
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+
+
 def _interrupt(command: list[str], delay_s: float, cwd, wait_for_start: bool = True):
     """(exit status, stderr) of the command, sent SIGINT delay_s after it started."""
-    process = subprocess.Popen(
-        command, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
-    )
+    with _sigint_deliverable():
+        process = subprocess.Popen(
+            command, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+        )
     try:
         if wait_for_start:
             assert process.stdout.readline().strip() == "started"
