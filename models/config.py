@@ -123,7 +123,8 @@ def _numbers(value):
             yield from _numbers(item)
 
 
-def _as_float(value) -> float:
+def as_float(value) -> float:
+    """float(value), an integer too large for a float becoming +-inf (never OverflowError)."""
     try:
         return float(value)
     except OverflowError:  # an integer of hundreds of digits
@@ -141,7 +142,7 @@ def check_bounds(config, prefix: str = "") -> None:
             continue
         bounds = field_bounds(field)
         for number in _numbers(value):
-            x = _as_float(number)
+            x = as_float(number)
             if not math.isfinite(x):
                 raise ConfigError(path, f"must be finite, got {_short(number)}")
             if bounds is not None and not bounds.admits(x):

@@ -32,7 +32,7 @@ import re
 import types
 import typing
 
-from rpod.models.config import CHOICES_KEY, ConfigError
+from rpod.models.config import CHOICES_KEY, ConfigError, as_float
 from rpod.scenarios.yaml_reader import TaggedMapping
 
 QUOTE_CHARS = 60  # longest quotation of a bad value in an error message
@@ -294,10 +294,7 @@ def _check_scalar(value, annotation, field: str, expected: str) -> None:
 
 
 def _finite(number) -> bool:
-    try:
-        return math.isfinite(float(number))
-    except OverflowError:  # an integer too large for a float
-        return False
+    return math.isfinite(as_float(number))
 
 
 # ---------------------------------------------------------------------------------------------
