@@ -6,7 +6,8 @@ Nothing here times anything: the checks are that the refusal happens, where, and
 """
 
 import pytest
-from campaign_helpers import SMALL_CAMPAIGN, run_rpod
+from campaign_helpers import SMALL_CAMPAIGN
+from campaign_helpers import run_rpod_in_process as run_rpod
 
 from rpod.scenarios import campaign as campaign_module
 from rpod.scenarios.campaign import MAX_RUNS, load_campaign, plan_runs

@@ -2,7 +2,7 @@
 scenario name too long for the file system, a 5,000-digit --seed, a long --rerun id."""
 
 import pytest
-from campaign_helpers import run_rpod
+from campaign_helpers import run_rpod_in_process as run_rpod
 
 
 @pytest.mark.parametrize(

@@ -8,7 +8,8 @@ a folder rpod did not write, never a file. A re-run replaces rpod's own output (
 `.rpod-output` manifest, or an older output without it). What killed runs left beside the
 folder (`.NAME.partial-PID`, `.NAME.old-PID` of a dead PID) is cleaned up by the next run.
 
-CLI cases run the real console entry point in a subprocess, with a timeout.
+CLI cases run the command line's `main` in this process (`run_rpod_in_process`), with a timeout;
+test_cli_bad_input checks that it says what the console entry point says.
 """
 
 import hashlib
@@ -21,6 +22,8 @@ import subprocess
 import sys
 
 import pytest
+from campaign_helpers import run_rpod as run_rpod_process
+from campaign_helpers import run_rpod_in_process
 
 from rpod.scenarios.loader import ScenarioFileError, bundled_scenarios
 from rpod.scenarios.run import MANIFEST, check_out_dir, staged_folder
@@ -34,16 +37,8 @@ RAN = (0, 3)
 
 
 def run_rpod(*args, cwd, env=None):
-    """Runs `python -m rpod.scenarios.cli ARGS` and returns the completed process."""
-    return subprocess.run(
-        [sys.executable, "-m", "rpod.scenarios.cli", *args],
-        cwd=cwd,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=TIMEOUT_S,
-        check=False,
-    )
+    """`rpod ARGS` in this process: the completed process's exit status, stdout and stderr."""
+    return run_rpod_in_process(*args, cwd=cwd, env=env, timeout=TIMEOUT_S)
 
 
 def assert_one_line_error(process, *must_contain):
@@ -283,7 +278,7 @@ def test_a_run_removes_what_a_killed_run_left(tmp_path, scenarios):
     (leftover / "log.npz").write_bytes(b"half written")
     live = tmp_path / f".out.partial-{os.getpid()}"  # a concurrent run's staging: kept
     live.mkdir()
-    process = run_rpod(
+    process = run_rpod_process(  # its own process: this one plays the concurrent run
         "run", str(scenarios["short"]), "--out", str(out), "--no-record", cwd=tmp_path
     )
     assert process.returncode in RAN, process.stderr

@@ -6,7 +6,7 @@ import pathlib
 import struct
 
 import pytest
-from campaign_helpers import run_rpod
+from campaign_helpers import run_rpod_in_process as run_rpod
 
 from rpod.scenarios import report
 from rpod.scenarios.campaign import PlannedRun

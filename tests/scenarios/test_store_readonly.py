@@ -10,7 +10,8 @@ and `sweep` both refuse with one line.
 import sqlite3
 
 import pytest
-from campaign_helpers import SMALL_CAMPAIGN, run_rpod, store_counts
+from campaign_helpers import SMALL_CAMPAIGN, store_counts
+from campaign_helpers import run_rpod_in_process as run_rpod
 
 from rpod.scenarios.campaign import PlannedRun
 from rpod.scenarios.loader import ScenarioFileError
