@@ -80,4 +80,4 @@ def test_sweep_and_report_use_the_plugin_in_the_workers_and_its_table(flown):
     assert sweep.returncode == 0, sweep.stderr
     assert report.returncode == 0, report.stderr
     assert "Point hold over the campaign:" in report.stdout
-    assert re.search(r"\b4\b.*\b0\.\d{3}\b", report.stdout.split("Point hold over")[1])
+    assert re.search(r"\b2\b.*\b0\.\d{3}\b", report.stdout.split("Point hold over")[1])

@@ -3,15 +3,15 @@ zero violations, checked from the log by an independent evaluation of every face
 outside r_sync (`los_corridor_far`) finishes with the violation reported, not a crash; the
 recording draws the rotating corridor.
 
-Each run happens once (module fixtures) through the console entry point in a subprocess.
+Each run happens once (module fixtures) through the command line's `main` in this process
+(`run_rpod_in_process`; test_cli_bad_input checks that it says what the console entry point says).
 """
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
+from campaign_helpers import run_rpod_in_process
 
 from rpod.diagrams.builder import build_diagram
 from rpod.diagrams.recording import make_headless_meshcat
@@ -23,13 +23,7 @@ TOLERANCE_M = 1e-3  # paper 004 Sec. 9
 
 
 def _run(out, scenario, *extra):
-    return subprocess.run(
-        [sys.executable, "-m", "rpod.scenarios.cli", "run", scenario, "--out", str(out), *extra],
-        capture_output=True,
-        text=True,
-        timeout=600,
-        check=False,
-    )
+    return run_rpod_in_process("run", scenario, "--out", out, *extra, cwd=out.parent, timeout=600)
 
 
 @pytest.fixture(scope="module")
