@@ -43,12 +43,12 @@ grid:
   chaser.p_LC_L[1]: [-20.0, -22.0, -24.0, -26.0, -28.0, -30.0, -32.0, -34.0, -36.0, -38.0]
 """
 
-# The same shape with coasting runs (~0.3 s each: 6000 s of CW coast), for tests of the engine
-# that should not depend on a controller.
+# The same shape with coasting runs (~0.45 s each here: 3000 s of coast), for tests of the engine
+# that should not depend on a controller: after two finished runs, ~2 s of runs are pending.
 SLOW_COAST_CAMPAIGN = """\
-description: "test: 10 coasting runs of 6000 s"
+description: "test: 10 coasting runs of 3000 s"
 base: coast
-overrides: {duration_s: 6000.0, log_period_s: 10.0}
+overrides: {duration_s: 3000.0, log_period_s: 10.0}
 grid:
   chaser.p_LC_L[1]: [-20.0, -22.0, -24.0, -26.0, -28.0, -30.0, -32.0, -34.0, -36.0, -38.0]
 """
