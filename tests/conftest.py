@@ -15,6 +15,7 @@ SHARED_SESSION_FIXTURES = {
 }
 
 
+@pytest.hookimpl(tryfirst=True)  # before xdist's own hook reads the marks
 def pytest_collection_modifyitems(config, items):
     by_file = collections.defaultdict(list)
     for item in items:
