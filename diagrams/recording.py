@@ -139,6 +139,7 @@ def screenshot_html(
     virtual_time_budget_ms: int = 5000,
     chromium: str | None = None,
     script: str | None = None,
+    attempts: int = 1,
 ) -> bool:
     """Renders an HTML file in headless Chromium and saves a PNG screenshot.
 
@@ -155,10 +156,25 @@ def screenshot_html(
         script: JavaScript run in the page after it loads (the Meshcat viewer is `viewer`),
             e.g. to pause the animation at a time or hide objects; the file itself is not
             changed (a copy with the script is rendered).
+        attempts: Chromium started this many times at most, each with `timeout_s`: headless
+            Chromium now and then never takes a virtual-time-budget shot (seen here once in
+            ~10 suite runs: nothing after 240 s, on a page another start renders in 5 s).
 
     Returns:
         True if the PNG was written; False if Chromium is missing, fails or times out.
     """
+    for _ in range(attempts):
+        if _screenshot_once(
+            html_path, png_path, timeout_s, window_size, virtual_time_budget_ms, chromium, script
+        ):
+            return True
+    return False
+
+
+def _screenshot_once(
+    html_path, png_path, timeout_s, window_size, virtual_time_budget_ms, chromium, script
+) -> bool:
+    """One Chromium start of screenshot_html."""
     chromium = chromium or find_chromium()
     if chromium is None:
         return False

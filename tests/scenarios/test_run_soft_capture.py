@@ -140,7 +140,7 @@ def test_the_recording_shows_both_hulls_the_cone_and_the_plans(run_dir, tmp_path
     import matplotlib.image
 
     png = tmp_path / "shot.png"
-    assert screenshot_html(run_dir / "recording.html", png, virtual_time_budget_ms=8000)
+    assert screenshot_html(run_dir / "recording.html", png, virtual_time_budget_ms=8000, attempts=2)
     rgb = matplotlib.image.imread(png)[..., :3].astype(float)
     rgb = rgb / 255.0 if rgb.max() > 1.0 else rgb
     r, b = rgb[..., 0], rgb[..., 2]
