@@ -125,7 +125,7 @@ def _cw_discretisation(n: float, dt: float, m: float) -> tuple[np.ndarray, np.nd
     M = np.zeros((9, 9))
     M[:6, :6] = A
     M[3:6, 6:] = np.eye(3) / m
-    from scipy.linalg import expm  # at use, not at load (rpod's start: ~0.5 s less)
+    from scipy.linalg import expm  # at use: every rpod process starts ~0.25 s sooner
 
     E = expm(M * dt)
     return E[:6, :6], E[:6, 6:]
@@ -144,7 +144,7 @@ def scaling_alpha_lp(A_a, b_a, R_a, p_a, A_b, b_b, R_b, p_b) -> float:
     """
     rows = np.vstack([np.column_stack([A_a @ R_a.T, -b_a]), np.column_stack([A_b @ R_b.T, -b_b])])
     rhs = np.concatenate([A_a @ R_a.T @ p_a, A_b @ R_b.T @ p_b])
-    from scipy.optimize import linprog  # at use, not at load (rpod's start: ~0.5 s less)
+    from scipy.optimize import linprog  # at use: every rpod process starts ~0.25 s sooner
 
     result = linprog(
         c=[0.0, 0.0, 0.0, 1.0],

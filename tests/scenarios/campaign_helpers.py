@@ -43,7 +43,7 @@ grid:
   chaser.p_LC_L[1]: [-20.0, -22.0, -24.0, -26.0, -28.0, -30.0, -32.0, -34.0, -36.0, -38.0]
 """
 
-# The same shape with coasting runs (~0.45 s each here: 3000 s of coast), for tests of the engine
+# The same shape with coasting runs (~0.5 s each here: 3000 s of coast), for tests of the engine
 # that should not depend on a controller: after two finished runs, ~2 s of runs are pending.
 SLOW_COAST_CAMPAIGN = """\
 description: "test: 10 coasting runs of 3000 s"
