@@ -15,7 +15,7 @@ import dataclasses
 import numpy as np
 
 from rpod.models.config import bounded, positive
-from rpod.models.relative_navigation import quaternion_product, rotation_vector_quaternion
+from rpod.models.frames import quaternion_product, rotation_vector_quaternion
 
 ARCSEC_RAD = np.pi / (180.0 * 3600.0)
 

@@ -12,7 +12,8 @@ callers that already hold the difference (the truth integrates it) keep all of t
 
 Also owns the vector products every model and planner uses (one home, DESIGN.md "Shared laws"):
 `cross` and `skew` on one 3-vector, `cross_rows` and `skew_rows` on stacks of them, and
-`cross_2d` for planar vectors. They are written out with products and sums only: faster than
+`cross_2d` for planar vectors; and the quaternion algebra of the attitude filters
+(`quaternion_product`, `quaternion_conjugate`, `rotation_vector_quaternion`, `attitude_error`). They are written out with products and sums only: faster than
 np.cross on 3-vectors (~10 us a call), and they take any scalar type (float, complex for
 complex-step derivatives, numpy object arrays of AutoDiffXd, symbolic.Expression or CasADi SX).
 """
@@ -170,6 +171,48 @@ def rotate_by_wxyz(q_wxyz, v) -> tuple[float, float, float]:
         vy + w * ty + (qz * tx - qx * tz),
         vz + w * tz + (qx * ty - qy * tx),
     )
+
+
+def quaternion_product(a, b) -> np.ndarray:
+    """a (x) b, Hamilton product, (w, x, y, z): R(a (x) b) = R(a) R(b)."""
+    aw, ax, ay, az = a
+    bw, bx, by, bz = b
+    return np.array(
+        [
+            aw * bw - ax * bx - ay * by - az * bz,
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+        ]
+    )
+
+
+def quaternion_conjugate(q) -> np.ndarray:
+    """The inverse of a unit quaternion."""
+    return np.array([q[0], -q[1], -q[2], -q[3]])
+
+
+def rotation_vector_quaternion(theta) -> np.ndarray:
+    """exp(theta / 2): the unit quaternion of the rotation vector theta (3,)."""
+    theta = np.asarray(theta, dtype=float)
+    angle = float(np.linalg.norm(theta))
+    if angle < 1e-12:
+        q = np.array([1.0, *(0.5 * theta)])
+        return q / np.linalg.norm(q)
+    axis = theta / angle
+    return np.array([np.cos(angle / 2), *(np.sin(angle / 2) * axis)])
+
+
+def attitude_error(q_ref, q) -> np.ndarray:
+    """The rotation vector dtheta with q = q_ref (x) exp(dtheta / 2), the shorter way round."""
+    dq = quaternion_product(quaternion_conjugate(q_ref), q)
+    if dq[0] < 0.0:
+        dq = -dq
+    vector = dq[1:]
+    sine = float(np.linalg.norm(vector))
+    if sine < 1e-12:
+        return 2.0 * vector
+    return 2.0 * np.arctan2(sine, dq[0]) * vector / sine
 
 
 def rotation_from_rpy_deg(rpy_deg) -> np.ndarray:

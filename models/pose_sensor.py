@@ -18,11 +18,8 @@ import dataclasses
 import numpy as np
 
 from rpod.models.config import bounded, positive
-from rpod.models.relative_navigation import (
-    PoseMeasurement,
-    quaternion_product,
-    rotation_vector_quaternion,
-)
+from rpod.models.frames import quaternion_product, rotation_vector_quaternion
+from rpod.models.relative_navigation import PoseMeasurement
 
 
 @dataclasses.dataclass(frozen=True)
@@ -60,14 +57,14 @@ class PoseSensor:
         attitude = range_m * np.radians(self.star_tracker_arcsec / 3600.0)
         return float(np.hypot(sensor, attitude))
 
-    def sees(self, p_CT_C: np.ndarray, boresight_C: np.ndarray) -> bool:
-        """Whether the target at p_CT_C (from the sensor, in C) is in the field of view and the
-        range window."""
+    def why_unseen(self, p_CT_C: np.ndarray, boresight_C: np.ndarray) -> str | None:
+        """Why the target at p_CT_C (from the sensor, in C) gives no fix: "range" outside the
+        window, "fov" outside the cone about the boresight; None when it is seen."""
         range_m = float(np.linalg.norm(p_CT_C))
         if not self.range_min_m <= range_m <= self.range_max_m:
-            return False
+            return "range"
         cosine = float(p_CT_C @ boresight_C) / (range_m * float(np.linalg.norm(boresight_C)))
-        return cosine >= np.cos(np.radians(self.half_fov_deg))
+        return None if cosine >= np.cos(np.radians(self.half_fov_deg)) else "fov"
 
     def measure(
         self,
@@ -87,10 +84,9 @@ class PoseSensor:
         noise_q = rng.standard_normal(3)
         u_dropout, u_outlier = rng.random(2)
         direction = rng.standard_normal(3)
-        p_CT_C = R_LC.T @ (-np.asarray(p_LC_L, dtype=float))
-        if not self.sees(p_CT_C, boresight_C):
-            in_window = self.range_min_m <= np.linalg.norm(p_CT_C) <= self.range_max_m
-            return None, "fov" if in_window else "range"
+        unseen = self.why_unseen(R_LC.T @ (-np.asarray(p_LC_L, dtype=float)), boresight_C)
+        if unseen:
+            return None, unseen
         if u_dropout < self.dropout_probability:
             return None, "dropout"
         sigma_p = self.position_sigma_m(float(np.linalg.norm(p_LC_L)))

@@ -27,8 +27,14 @@ import dataclasses
 
 import numpy as np
 
-from rpod.models.cw import cw_continuous
-from rpod.models.frames import skew
+from rpod.models.cw import cw_acceleration, cw_continuous
+from rpod.models.frames import (
+    attitude_error,
+    quaternion_product,
+    rotation_vector_quaternion,
+    skew,
+)
+from rpod.models.rigid_body import quaternion_rate
 
 ERROR_SIZE = 14
 P_SLICE, V_SLICE, THETA_SLICE, W_SLICE, K_SLICE = (
@@ -46,51 +52,6 @@ GROUPS = {
     "inertia": K_SLICE,
 }
 """The error state's groups, as summary.json and the figures name them."""
-
-
-# ---------------------------------------------------------------------------------- quaternions
-
-
-def quaternion_product(a, b) -> np.ndarray:
-    """a (x) b, Hamilton product, (w, x, y, z): R(a (x) b) = R(a) R(b)."""
-    aw, ax, ay, az = a
-    bw, bx, by, bz = b
-    return np.array(
-        [
-            aw * bw - ax * bx - ay * by - az * bz,
-            aw * bx + ax * bw + ay * bz - az * by,
-            aw * by - ax * bz + ay * bw + az * bx,
-            aw * bz + ax * by - ay * bx + az * bw,
-        ]
-    )
-
-
-def quaternion_conjugate(q) -> np.ndarray:
-    """The inverse of a unit quaternion."""
-    return np.array([q[0], -q[1], -q[2], -q[3]])
-
-
-def rotation_vector_quaternion(theta) -> np.ndarray:
-    """exp(theta / 2): the unit quaternion of the rotation vector theta (3,)."""
-    theta = np.asarray(theta, dtype=float)
-    angle = float(np.linalg.norm(theta))
-    if angle < 1e-12:
-        q = np.array([1.0, *(0.5 * theta)])
-        return q / np.linalg.norm(q)
-    axis = theta / angle
-    return np.array([np.cos(angle / 2), *(np.sin(angle / 2) * axis)])
-
-
-def attitude_error(q_ref, q) -> np.ndarray:
-    """The rotation vector dtheta with q = q_ref (x) exp(dtheta / 2), the shorter way round."""
-    dq = quaternion_product(quaternion_conjugate(q_ref), q)
-    if dq[0] < 0.0:
-        dq = -dq
-    vector = dq[1:]
-    sine = float(np.linalg.norm(vector))
-    if sine < 1e-12:
-        return 2.0 * vector
-    return 2.0 * np.arctan2(sine, dq[0]) * vector / sine
 
 
 # ------------------------------------------------------------------------------------- dynamics
@@ -182,10 +143,9 @@ class FilterState:
 def _rates(n, x: np.ndarray, a_L: np.ndarray) -> np.ndarray:
     """d/dt of the nominal [p, v, q, w, r] (17): CW translation with the known acceleration
     a_L, quaternion kinematics, torque-free Euler, constant inertia parameters."""
-    p, v, q, w, r = x[0:3], x[3:6], x[6:10], x[10:13], x[13:15]
-    a = np.array([3 * n * n * p[0] + 2 * n * v[1], -2 * n * v[0], -n * n * p[2]]) + a_L
-    q_dot = 0.5 * quaternion_product(q, np.array([0.0, *w]))
-    return np.concatenate([v, a, q_dot, euler_rate(w, r), np.zeros(2)])
+    p, v, q, w, k = x[0:3], x[3:6], x[6:10], x[10:13], x[13:15]
+    a = cw_acceleration(n, p, v) + a_L
+    return np.concatenate([v, a, quaternion_rate(q, w), euler_rate(w, k), np.zeros(2)])
 
 
 def _error_dynamics(n, w_T, k) -> np.ndarray:

@@ -5,7 +5,7 @@ gyro's white noise (from the Allan variance's slope at short averaging) and bias
 import numpy as np
 
 from rpod.models.chaser_sensors import ARCSEC_RAD, Gnss, Gyro, StarTracker
-from rpod.models.relative_navigation import attitude_error
+from rpod.models.frames import attitude_error
 
 Q_IC = np.array([0.5, 0.5, -0.5, 0.5])
 

@@ -12,9 +12,11 @@ import math
 import numpy as np
 import pytest
 from pydrake.autodiffutils import AutoDiffXd, ExtractGradient, InitializeAutoDiff
+from pydrake.common.eigen_geometry import AngleAxis
 from scipy.integrate import solve_ivp
 
 from rpod.models.frames import (
+    attitude_error,
     cross,
     cross_2d,
     cross_rows,
@@ -22,10 +24,13 @@ from rpod.models.frames import (
     lvlh_angular_velocity,
     lvlh_rotation,
     lvlh_to_inertial,
+    quaternion_conjugate,
+    quaternion_product,
     quaternion_wxyz,
     rotate_by_wxyz,
     rotation_from_rpy_deg,
     rotation_from_wxyz,
+    rotation_vector_quaternion,
     skew,
     skew_rows,
 )
@@ -315,3 +320,28 @@ def test_row_variants_equal_the_single_vector_ones_bit_for_bit():
     np.testing.assert_array_equal(
         cross_2d(u, v), cross_rows(np.hstack([u, flat]), np.hstack([v, flat]))[:, 2]
     )
+
+
+def test_the_quaternion_algebra_agrees_with_drakes():
+    """quaternion_product, rotation_vector_quaternion and attitude_error against pydrake's
+    RotationMatrix and AngleAxis, on random rotations (1e-12)."""
+    rng = np.random.default_rng(5)
+    for _ in range(50):
+        a, b = (q / np.linalg.norm(q) for q in rng.standard_normal((2, 4)))
+        np.testing.assert_allclose(
+            rotation_from_wxyz(quaternion_product(a, b)),
+            rotation_from_wxyz(a) @ rotation_from_wxyz(b),
+            atol=1e-12,
+        )
+        np.testing.assert_allclose(
+            quaternion_product(a, quaternion_conjugate(a)), [1, 0, 0, 0], atol=1e-12
+        )
+        theta = rng.uniform(-3.0, 3.0, 3)
+        angle = np.linalg.norm(theta)
+        drake = AngleAxis(angle, theta / angle).rotation()
+        np.testing.assert_allclose(
+            rotation_from_wxyz(rotation_vector_quaternion(theta)), drake, atol=1e-12
+        )
+        if angle < np.pi:  # the shorter way round is theta itself
+            q = quaternion_product(a, rotation_vector_quaternion(theta))
+            np.testing.assert_allclose(attitude_error(a, q), theta, atol=1e-10)

@@ -5,8 +5,8 @@ and window, and its dropouts and outliers come at their rates."""
 import numpy as np
 import pytest
 
+from rpod.models.frames import attitude_error
 from rpod.models.pose_sensor import PoseSensor
-from rpod.models.relative_navigation import attitude_error
 
 BORESIGHT_C = np.array([0.0, 1.0, 0.0])  # the chaser behind the target on V-bar looks along +y
 P_LC_L = np.array([0.0, -20.0, 0.0])

@@ -13,6 +13,7 @@ import pytest
 from scipy.stats import chi2
 
 from rpod.models import relative_navigation as nav
+from rpod.models.frames import quaternion_product, rotation_vector_quaternion
 
 N_RAD_S = 0.0011  # ~500 km circular orbit
 TRUTH_STEP_S = 0.05
@@ -75,11 +76,11 @@ def simulate_truth(x0, k, duration_s, rng):
 
 def measure(t, truth, rng, sigma_attitude=SIGMA_ATTITUDE_RAD) -> nav.PoseMeasurement:
     sp = position_sigma(truth[0:3])
-    noise_q = nav.rotation_vector_quaternion(sigma_attitude * rng.standard_normal(3))
+    noise_q = rotation_vector_quaternion(sigma_attitude * rng.standard_normal(3))
     return nav.PoseMeasurement(
         t=t,
         p_LC_L=truth[0:3] + sp * rng.standard_normal(3),
-        q_IT=nav.quaternion_product(truth[6:10], noise_q),
+        q_IT=quaternion_product(truth[6:10], noise_q),
         sigma_position_m=sp,
         sigma_attitude_rad=sigma_attitude,
     )
@@ -120,11 +121,11 @@ def starts(rng, count, spin: str):
 def wrong_pose(fix, rng) -> nav.PoseMeasurement:
     """An outlier: the fix 2 m off in a random direction and turned 30 deg about T's x."""
     direction = random_attitudes(rng, 1)[0, 1:]
-    turn = nav.rotation_vector_quaternion(np.radians(30.0) * np.array([1.0, 0.0, 0.0]))
+    turn = rotation_vector_quaternion(np.radians(30.0) * np.array([1.0, 0.0, 0.0]))
     return nav.PoseMeasurement(
         fix.t,
         fix.p_LC_L + 2.0 * direction / np.linalg.norm(direction),
-        nav.quaternion_product(fix.q_IT, turn),
+        quaternion_product(fix.q_IT, turn),
         fix.sigma_position_m,
         fix.sigma_attitude_rad,
     )
