@@ -87,10 +87,15 @@ def test_the_installed_console_script_says_one_line_on_an_early_ctrl_c(tmp_path)
         pytest.skip(
             "the rpod console script is not installed from this pyproject (pip install -e .)"
         )
-    # 0.8 s: past the interpreter's own start on a loaded machine, well inside the ~2 s import.
-    status, stderr = _interrupt([str(script), "list"], 0.8, tmp_path, wait_for_start=False)
+    # 0.8 s: past the interpreter's own start on a loaded machine, inside the import of a run
+    # (pydrake, ~1.5 s). Not `rpod list`: since its imports got lazy it can be finishing at 0.8 s,
+    # and a SIGINT during the interpreter's exit is never seen (CI: empty stderr).
+    out = tmp_path / "out"
+    command = [str(script), "run", "hold_point", "--no-record", "--out", str(out)]
+    status, stderr = _interrupt(command, 0.8, tmp_path, wait_for_start=False)
     assert stderr.splitlines() == ["rpod: interrupted"], stderr
     assert status == 130
+    assert not out.exists()
 
 
 def test_the_entry_point_runs_the_command_line(tmp_path):
