@@ -419,6 +419,21 @@ def _say_compiles() -> None:
         log.propagate = False
 
 
+interrupted_in_an_import = False
+"""Whether the last `main` was stopped inside an import (a command imports pydrake at use): the
+console script then ends without the interpreter's finalisation (rpod.scenarios.entry says why)."""
+
+
+def _raised_in_an_import(error: BaseException) -> bool:
+    """True when the error's traceback passes through Python's import machinery."""
+    frame = error.__traceback__
+    while frame is not None:
+        if frame.tb_frame.f_code.co_filename.startswith("<frozen importlib"):
+            return True
+        frame = frame.tb_next
+    return False
+
+
 def main(argv=None) -> int:
     """Entry point of the `rpod` console script."""
     logging.getLogger("drake").setLevel(logging.WARNING)
@@ -431,6 +446,8 @@ def main(argv=None) -> int:
         print(f"rpod: error: {error}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except KeyboardInterrupt as interrupt:  # Ctrl-C: 130; SIGTERM (run.Terminated): 143
+        global interrupted_in_an_import
+        interrupted_in_an_import = _raised_in_an_import(interrupt)
         print(f"rpod: {getattr(interrupt, 'message', 'interrupted')}", file=sys.stderr)
         return getattr(interrupt, "exit_status", 130)
     except BrokenPipeError:  # `rpod report ... | head`: the reader left; no traceback

@@ -12,7 +12,8 @@ been written yet, so there is nothing to clean up). A SIGINT that the parent set
 (a background job of a non-interactive shell) stays ignored. Once the command line is loaded
 Python's own handler is back, and `cli.main` turns a KeyboardInterrupt into the same line and
 status, cleaning up what a run started; one it does not catch (raised while the arguments are
-parsed, or an interrupted import inside a command) ends here the same way.
+parsed, or an interrupted import inside a command) ends here the same way. A process
+stopped inside an import ends without the interpreter's finalisation (`_end_now`).
 Does not own: the command line (cli.py), which `python -m rpod.scenarios.cli` still runs.
 """
 
@@ -52,13 +53,28 @@ def main(argv=None) -> int:
         if loading:
             signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
-        return cli_main(argv)
+        status = cli_main(argv)
     except (KeyboardInterrupt, ImportError) as error:
         if not _an_interrupt(error):
             raise
         signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C must not cut this line
         print(f"rpod: {getattr(error, 'message', 'interrupted')}", file=sys.stderr)
-        return getattr(error, "exit_status", EXIT_INTERRUPTED)
+        _end_now(getattr(error, "exit_status", EXIT_INTERRUPTED))
+    from rpod.scenarios import cli
+
+    if cli.interrupted_in_an_import:
+        _end_now(status)
+    return status
+
+
+def _end_now(status: int) -> None:
+    """Ends the process without the interpreter's finalisation. A Ctrl-C inside a compiled
+    module's import (pydrake's, which a command imports at use) leaves that module half made,
+    and finalising it once aborted the interpreter after the one line ("Fatal Python error:
+    PyThreadState_Get", CI under load). What the command started it has cleaned up by now."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(status)
 
 
 if __name__ == "__main__":
