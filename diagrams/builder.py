@@ -13,6 +13,9 @@ reads the sensed bundle and drives one of the actuation paths, which the builder
 
     truth --relative state, LVLH, attitudes, target orbit--> sensed (Multiplexer)
           --> controller, monitor
+    with `navigation: !Ekf`, the controller reads an estimate instead (the monitor, an ideal
+    actuator and the scene still the truth):
+    truth --> truth_sensed (Multiplexer), chaser_state_I --> navigation --sensed--> controller
     path 1: controller --body wrench--> WrenchAllocator --duty--> PwmModulator --on/off--> truth
     path 2: controller --per-thruster levels--> PwmModulator --on/off--> truth
             controller --force vectors (gimbaled)--> ThrusterBank --wrench, mass flow--> truth
@@ -35,6 +38,7 @@ from pydrake.systems.primitives import (
 
 from rpod.diagrams import controller_seam
 from rpod.diagrams.controller_seam import Actuation
+from rpod.diagrams.navigation import add_navigation
 from rpod.diagrams.scenario import (
     Scenario,
     body_polytopes,
@@ -50,6 +54,7 @@ from rpod.models.orbit import initial_orbit_state, lvlh_of
 from rpod.models.thrusters import ThrusterLayout
 from rpod.systems.allocator import WrenchAllocator
 from rpod.systems.ideal_actuator import IdealActuator
+from rpod.systems.navigation import NAVIGATION_LOG_KEYS, Ekf, RelativeNavigation
 from rpod.systems.pwm import PwmModulator
 from rpod.systems.safety_monitor import SafetyMonitor
 from rpod.systems.sensed import SENSED_FIELDS, SENSED_PORT
@@ -72,6 +77,31 @@ class DiagramHandles:
     scene: object | None
     wiring: controller_seam.ControllerWiring | None = None  # what the plug-in handed back
     scene_driver: object | None = None  # publishes the scene from the Simulator's monitor
+    navigation: RelativeNavigation | None = None  # None: the controller reads the truth
+
+
+def make_truth(scenario: Scenario, layout: ThrusterLayout | None, wrench_input: bool) -> Truth:
+    """The scenario's truth system: with a fixed thruster layout inside, or a wrench input, or
+    neither (coasting: the navigation's lead-in)."""
+    chaser, target = scenario.chaser, scenario.target
+    # Initial attitudes are given relative to LVLH; the truth holds them relative to ECI. R_IL0
+    # goes through the q_IL quaternion, as the truth's own q_IL output gives it.
+    R_IL0 = rotation_from_wxyz(
+        quaternion_wxyz(lvlh_of(*initial_orbit_state(scenario.orbit), scenario.orbit.gravity)[0])
+    )
+    return Truth(
+        scenario.orbit,
+        *initial_relative_state_L(scenario),
+        chaser.mass_kg,
+        np.asarray(target.inertia_kg_m2, float),
+        quaternion_wxyz(R_IL0 @ target_rotation_in_lvlh(scenario)),
+        np.radians(target.w_IT_T_deg_s),
+        np.asarray(chaser.inertia_kg_m2, float),
+        quaternion_wxyz(R_IL0 @ chaser_rotation_in_lvlh(scenario)),
+        np.radians(chaser.w_IC_C_deg_s),
+        layout,
+        wrench_input=wrench_input,
+    )
 
 
 def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHandles]:
@@ -83,15 +113,24 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
     layout = make_thruster_layout(scenario) if scenario.thrusters.enabled else None
     # Initial attitudes are given relative to LVLH; the truth holds them relative to ECI. R_IL0
     # goes through the q_IL quaternion, as the truth's own q_IL output gives it.
-    R_IL0 = rotation_from_wxyz(
-        quaternion_wxyz(lvlh_of(*initial_orbit_state(scenario.orbit), scenario.orbit.gravity)[0])
-    )
-    J_T = np.asarray(target.inertia_kg_m2, float)
-    J_C = np.asarray(chaser.inertia_kg_m2, float)
+
     # The sensed bundle first, then the controller (it says which actuation path it drives),
     # then the truth, built for that path.
-    bundle = builder.AddNamedSystem("sensed", Multiplexer([size for _, size in SENSED_FIELDS]))
-    sensed_port = bundle.get_output_port()
+    # The true bundle (what the monitor, an ideal actuator and the scene read), then what the
+    # controller reads: the same bundle (navigation !Truth) or the navigation's estimate (!Ekf),
+    # then the controller (it says which actuation path it drives), then the truth for that path.
+    estimated = isinstance(scenario.navigation, Ekf)
+    bundle = builder.AddNamedSystem(
+        "truth_sensed" if estimated else "sensed",
+        Multiplexer([size for _, size in SENSED_FIELDS]),
+    )
+    truth_port = bundle.get_output_port()
+    navigation = None
+    if estimated:
+        navigation = add_navigation(builder, scenario, make_truth(scenario, None, False))
+        sensed_port = navigation.GetOutputPort("sensed")
+    else:
+        sensed_port = truth_port
     plugin = controller_seam.plugin_for(scenario.controller)
     wiring = plugin.add_to_diagram(builder, scenario, sensed_port) if plugin else None
     actuation = plugin.actuation_for(scenario.controller) if wiring is not None else None
@@ -102,23 +141,13 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
     # One system holds the whole continuous truth: both orbits, both attitudes, the chaser's
     # mass and the thrusters' wrench (rpod.systems.truth says why).
     truth = builder.AddNamedSystem(
-        "truth",
-        Truth(
-            scenario.orbit,
-            *initial_relative_state_L(scenario),
-            chaser.mass_kg,
-            J_T,
-            quaternion_wxyz(R_IL0 @ target_rotation_in_lvlh(scenario)),
-            np.radians(target.w_IT_T_deg_s),
-            J_C,
-            quaternion_wxyz(R_IL0 @ chaser_rotation_in_lvlh(scenario)),
-            np.radians(chaser.w_IC_C_deg_s),
-            None if ideal or gimbaled else layout,
-            wrench_input=ideal or gimbaled,
-        ),
+        "truth", make_truth(scenario, None if ideal or gimbaled else layout, ideal or gimbaled)
     )
     for index, (name, _) in enumerate(SENSED_FIELDS):
         connect(truth.GetOutputPort(name), bundle.get_input_port(index))
+    if navigation is not None:
+        connect(truth_port, navigation.GetInputPort("truth_sensed"))
+        connect(truth.GetOutputPort("chaser_state_I"), navigation.GetInputPort("chaser_state_I"))
     # The handles (DiagramHandles) name the one truth system for each of its old roles.
     orbital = target_attitude = chaser_attitude = truth
 
@@ -211,7 +240,7 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
             ),
         )
         connect(wiring.command, actuator.GetInputPort("command"))
-        connect(sensed_port, actuator.GetInputPort("sensed"))
+        connect(truth_port, actuator.GetInputPort("sensed"))  # the physics: true attitude
         connect(truth.GetOutputPort("chaser_mass"), actuator.GetInputPort("chaser_mass"))
         connect(actuator.GetOutputPort("body_wrench"), truth.GetInputPort("body_wrench"))
         connect(
@@ -224,7 +253,7 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
         "safety_monitor",
         SafetyMonitor(docking, chaser_shape, chaser.capture_point_C),
     )
-    connect(sensed_port, monitor.GetInputPort(SENSED_PORT))
+    connect(truth_port, monitor.GetInputPort(SENSED_PORT))
 
     log("relative_state_L", relative)
     log("q_IL", q_IL)
@@ -243,6 +272,10 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
         "port_distance_m",
     ):
         log(name, monitor.GetOutputPort(name))
+    if navigation is not None:
+        log("navigation_sensed", sensed_port)  # what the controller read
+        for name in ("estimate", "covariance", "navigation_status"):
+            log(NAVIGATION_LOG_KEYS[name], navigation.GetOutputPort(name))
 
     scene = None
     if meshcat is not None:
@@ -260,7 +293,7 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
             chaser_vertices_C=(chaser_shape.vertices.tolist() if chaser.shape != "box" else []),
         )
         scene = RendezvousScene.AddToBuilder(
-            builder, meshcat, scenario.visualization, sensed_port, geometry
+            builder, meshcat, scenario.visualization, truth_port, geometry
         )
         if wiring is not None:
             plugin.add_scene_extras(builder, meshcat, scenario, wiring, scene)
@@ -286,5 +319,6 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
         scene,
         wiring,
         scene_driver,
+        navigation,
     )
     return diagram, handles

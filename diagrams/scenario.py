@@ -18,7 +18,7 @@ from pydrake.systems.analysis import SimulatorConfig
 from rpod.diagrams import controller_seam
 from rpod.models import modulation
 from rpod.models import thrusters as presets
-from rpod.models.config import CHOICES_KEY, ConfigError
+from rpod.models.config import CHOICES_KEY, ConfigError, check_bounds
 from rpod.models.docking import DockingGeometry
 from rpod.models.frames import rotation_from_rpy_deg, rotation_from_wxyz
 from rpod.models.gravity import GRAVITY_MODELS, MIN_ALTITUDE_M
@@ -32,6 +32,7 @@ from rpod.models.shapes import (
 )
 from rpod.models.thrusters import ThrusterLayout
 from rpod.planners.pointing import min_rotation
+from rpod.systems import navigation as navigation_choices
 from rpod.systems.scene import SceneConfig
 
 THRUSTER_LAYOUTS = ("rcs_cube_12", "planar_8", "gimbaled_cuboid_8")
@@ -218,6 +219,10 @@ class Scenario:
         controller: the guidance/control law, chosen by YAML tag among the registered
             plug-ins (rpod.diagrams.controller_seam): `!HoldPoint {...}` (the default),
             `!SoftCapture {...}`, ...; `null` coasts (no controller).
+        navigation: what the controller reads: `!Truth {}` (the default: the true state, as
+            every paper assumes) or `!Ekf {...}` (sensors and a relative-navigation filter on
+            the truth: rpod.systems.navigation).
+        seed: the seed of every random draw of the run (the sensors' noise).
         duration_s: simulated time [s]; with stop.at_plan_end, the most simulated time.
         stop: ending the run at the controller's planned end (stop.at_plan_end).
         log_period_s: sample period of every logged signal [s].
@@ -240,6 +245,10 @@ class Scenario:
         default_factory=controller_seam.default_config,
         metadata={CHOICES_KEY: controller_seam.config_types},
     )
+    navigation: typing.Union[navigation_choices.Truth, navigation_choices.Ekf] = dataclasses.field(  # noqa: UP007
+        default_factory=navigation_choices.Truth
+    )
+    seed: int = 0
     duration_s: float = 600.0
     stop: StopConfig = dataclasses.field(default_factory=StopConfig)
     log_period_s: float = 1.0
@@ -589,6 +598,17 @@ def validate_scenario(scenario: Scenario) -> None:
             f"the command period must be positive, got {period}",
         )
 
+    if isinstance(scenario.navigation, navigation_choices.Ekf):
+        try:
+            check_bounds(scenario.navigation)
+            scenario.navigation.validate()
+        except ConfigError as error:
+            raise error.under("navigation") from None
+    _require(
+        isinstance(scenario.seed, int) and 0 <= scenario.seed < 2**63,
+        "seed",
+        f"must be an integer in [0, 2^63), got {scenario.seed}",
+    )
     _positive(scenario.duration_s, "duration_s")
     _positive(scenario.log_period_s, "log_period_s")
     _require(

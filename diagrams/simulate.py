@@ -23,6 +23,7 @@ from pydrake.systems.framework import EventStatus
 from rpod.diagrams import controller_seam
 from rpod.diagrams.builder import DiagramHandles, build_diagram
 from rpod.diagrams.metrics import run_summary
+from rpod.diagrams.navigation_results import navigation_log, navigation_summary
 from rpod.diagrams.scenario import Scenario, scenario_warnings
 from rpod.systems.safety_monitor import ContactWatch
 
@@ -102,6 +103,8 @@ def _collect_log(diagram, context, handles: DiagramHandles, scenario: Scenario) 
     log["body_wrench"] = data.get("body_wrench", np.zeros((count, 6)))
     for key in handles.wiring.logged if handles.wiring is not None else ():
         log[key] = data[key]  # the controller's own signals, under the names it gave them
+    if handles.navigation is not None:
+        log.update(navigation_log(data, count))
     return log
 
 
@@ -248,6 +251,8 @@ def simulate(scenario: Scenario, meshcat=None, progress=None) -> SimulationResul
                 log[key] = value
         summary.update(results.summary)
         outcome = results.outcome
+    if handles.navigation is not None:
+        summary["navigation"] = navigation_summary(log, scenario.target.inertia_kg_m2)
     summary["warnings"] = warnings
     summary["stopped_early"] = stopped
     # "Did the simulation run" (status) apart from "did the mission succeed" (mission), and

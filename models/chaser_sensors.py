@@ -20,7 +20,7 @@ from rpod.models.frames import quaternion_product, rotation_vector_quaternion
 ARCSEC_RAD = np.pi / (180.0 * 3600.0)
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass
 class StarTracker:
     """Attitude fixes q_IC at rate_hz with sigma_arcsec of noise about each axis."""
 
@@ -33,7 +33,7 @@ class StarTracker:
         return quaternion_product(q_IC, rotation_vector_quaternion(noise))
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass
 class Gyro:
     """Body rates w_IC_C + bias + white noise, sampled every period_s.
 
@@ -60,7 +60,7 @@ class Gyro:
         return sample, bias + rrw * np.sqrt(self.period_s) * rng.standard_normal(3)
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass
 class Gnss:
     """Fixes of the chaser's orbit, p_IC_I and v_IC_I, at rate_hz."""
 

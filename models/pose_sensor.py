@@ -22,7 +22,7 @@ from rpod.models.frames import quaternion_product, rotation_vector_quaternion
 from rpod.models.relative_navigation import PoseMeasurement
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass
 class PoseSensor:
     """The pose sensor's settings (defaults: a lidar pose estimator at close range).
 
@@ -30,7 +30,9 @@ class PoseSensor:
     position_floor_m, range_noise_fraction: position 1-sigma = max(floor, fraction x range).
     attitude_sigma_deg: attitude 1-sigma about each axis.
     half_fov_deg, range_min_m, range_max_m: outside the cone about the boresight or the window,
-        no fix.
+        no fix. The default field of view is the whole sphere (180 deg): most scenarios do not
+        slew the chaser to face the target; a single camera's is 15-30 deg, set it with the
+        boresight (rpod.systems.navigation.Ekf.boresight_C) to fly one.
     dropout_probability: a fix lost at random (a frame without a match).
     outlier_probability, outlier_position_m, outlier_attitude_deg: a wrong fix, that far off.
     star_tracker_arcsec: the chaser's attitude knowledge, by which the fix is rotated into L.
@@ -41,7 +43,7 @@ class PoseSensor:
     position_floor_m: float = bounded(0.01, 0.0, 10.0)
     range_noise_fraction: float = bounded(0.01, 0.0, 1.0)
     attitude_sigma_deg: float = bounded(2.0, 0.0, 90.0)
-    half_fov_deg: float = bounded(30.0, 0.0, 180.0)
+    half_fov_deg: float = bounded(180.0, 0.0, 180.0)
     range_min_m: float = bounded(0.3, 0.0, 1e4)
     range_max_m: float = bounded(200.0, 0.0, 1e5)
     dropout_probability: float = bounded(0.0, 0.0, 1.0)

@@ -61,6 +61,7 @@ from rpod.diagrams.controller_seam import plugin_for
 from rpod.diagrams.plots import write_plots
 from rpod.diagrams.scenario import Scenario
 from rpod.diagrams.simulate import simulate
+from rpod.models.config import ConfigError
 from rpod.scenarios.loader import ScenarioFileError, dump_scenario
 from rpod.scenarios.schema import quote
 
@@ -408,7 +409,10 @@ def run_to_folder(
             meshcat = make_headless_meshcat()
         if progress is not None:
             progress.phase("building the diagram and the controller's first plan")
-        result = simulate(scenario, meshcat=meshcat, progress=progress)
+        try:
+            result = simulate(scenario, meshcat=meshcat, progress=progress)
+        except ConfigError as error:  # found only as the diagram is built (a navigation lead-in)
+            raise ScenarioFileError(f"{name}: {error}") from None
         if progress is not None:
             progress.phase("writing the log, the plots" + (" and the recording" if record else ""))
         summary = {"scenario": name, **result.summary}

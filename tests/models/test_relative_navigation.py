@@ -287,3 +287,36 @@ def test_a_10_s_dropout_is_recovered():
         assert np.all(sigma[np.searchsorted(t, 69.9), 0:3] > before)  # it grew in the gap
         np.testing.assert_allclose(after, before, rtol=0.5)  # and came back down
         assert np.all(np.abs(error[-1]) <= 3.0 * sigma[-1])
+
+
+def test_the_float_process_model_is_the_shared_laws():
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        x = rng.standard_normal(15)
+        x[6:10] /= np.linalg.norm(x[6:10])
+        x[13:15] *= 0.3
+        a_L = rng.standard_normal(3)
+        np.testing.assert_allclose(
+            nav._rates(N_RAD_S, x, a_L), nav.rates_reference(N_RAD_S, x, a_L), atol=1e-15
+        )
+
+
+def test_the_nominal_alone_is_carried_as_predict_carries_it():
+    rng = np.random.default_rng(5)
+    truth = np.concatenate(
+        [[3.0, -20.0, 1.0, 0.01, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0], [0.05, 0.02, 0.1]]
+    )
+    state = nav.initial_state(measure(0.0, truth, rng), measure(0.5, truth, rng), PRIOR)
+    state.inertia_parameters = np.array([0.2, -0.3])
+    full = nav.predict(state, 3.2, N_RAD_S, NOISE, (1e-3, 0.0, -2e-3), 0.25, 10.0)
+    nominal = nav.propagate_nominal(state, 3.2, N_RAD_S, (1e-3, 0.0, -2e-3), 0.25)
+    np.testing.assert_allclose(nav.nominal_vector(nominal), nav.nominal_vector(full), atol=1e-12)
+    np.testing.assert_array_equal(nominal.P, state.P)  # the covariance is left as it was
+
+
+@pytest.mark.parametrize("dof", [3, 6, 12])
+@pytest.mark.parametrize("probability", [0.025, 0.5, 0.975, 0.9999])
+def test_the_chi_square_quantile_is_scipy_stats(dof, probability):
+    assert nav.chi_square_quantile(probability, dof) == pytest.approx(
+        chi2.ppf(probability, dof), rel=1e-10
+    )

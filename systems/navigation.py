@@ -1,0 +1,541 @@
+"""Navigation on the `sensed` seam: what the controllers read, the truth or an estimate.
+
+Owns: the scenario's `navigation:` choice (`Truth`, the default, or `Ekf`: sensors and the
+relative-navigation filter), and `RelativeNavigation`, the LeafSystem that samples the sensors
+from the truth and outputs the filter's estimate as a `sensed` vector (rpod.systems.sensed), so
+that no controller changes.
+Does not own: the sensor and filter mathematics (rpod.models.pose_sensor, .chaser_sensors,
+.relative_navigation), the truth before t = 0 that the lead-in reads (rpod.diagrams.navigation
+integrates it), or the wiring (rpod.diagrams.builder).
+
+What the estimate is made of, every `update_period_s` (one tick):
+- relative position, velocity, target attitude, rate and inertia parameters: the multiplicative
+  EKF (rpod.models.relative_navigation) on the pose sensor's fixes. A fix taken at t arrives
+  `latency_s` later (at the first tick after), and the filter is updated at the fix's own time,
+  then carried to now. The chaser's thrust enters its process model as a known acceleration,
+  the tick's mean of what the chaser's velocity change says beyond gravity (an accelerometer's
+  delta-v; the flight software knows what it fired);
+- the chaser's attitude: the last star-tracker fix carried by the gyro's rates (bias not
+  estimated: 1 deg/h over the 0.2 s between fixes is 0.2 arcsec, below the tracker's 10);
+- the target's orbit: the chaser's GNSS fix less the relative estimate, carried between fixes
+  by the truth's gravity model; LVLH (q_IL, w_IL_L) is that orbit's.
+Between ticks the output carries the last estimate to the instant it is read (RK4 on the
+nominal), so a controller sampled at a tick reads the estimate of that instant, from the fixes
+that had arrived before it.
+
+The filter starts from measurements only: the sensors run over `lead_in_s` before t = 0, on the
+truth integrated backwards from the scenario's start (the chaser coasting; every rpod scenario
+starts where guidance takes over from an earlier phase, whose navigation already ran).
+
+Random draws come from (the scenario's seed, the sensor, the tick), so a run is deterministic
+and one sensor's draws do not depend on another's.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+from pydrake.common.value import Value
+from pydrake.systems.framework import LeafSystem
+
+from rpod.models import relative_navigation as rn
+from rpod.models.chaser_sensors import Gnss, Gyro, StarTracker
+from rpod.models.config import ConfigError, bounded, positive
+from rpod.models.frames import (
+    quaternion_product,
+    quaternion_wxyz,
+    rotation_from_wxyz,
+    rotation_vector_quaternion,
+)
+from rpod.models.gravity import gravity_acceleration_xyz
+from rpod.models.orbit import lvlh_of
+from rpod.models.pose_sensor import PoseSensor
+from rpod.systems.sensed import SENSED_SIZE, Sensed, sensed_vector
+
+ESTIMATE_SIZE = 15
+"""The `estimate` port: [p_LC_L, v_LC_L, q_IT, w_IT_T, inertia parameters (p_x, p_y)]."""
+STATUS_FIELDS = ("fixes_used", "fixes_rejected", "fixes_unseen", "last_nis")
+"""The `navigation_status` port, in this order (counts since the lead-in began)."""
+
+NAVIGATION_LOG_KEYS = {
+    "estimate": "navigation_estimate",
+    "covariance": "navigation_covariance",
+    "navigation_status": "navigation_status",
+}
+"""The log key of each output port (the builder also logs `sensed` as `navigation_sensed`)."""
+
+# The random streams, one per sensor (module docstring).
+_POSE, _STAR, _GYRO, _GNSS, _BIAS = range(5)
+_TIME_TOLERANCE_S = 1e-9
+# The filter's measurement sigma is never below these: a noise-free sensor (noise_scale 0)
+# would make the innovation covariance singular once the filter has converged.
+_SIGMA_FLOOR_M, _SIGMA_FLOOR_RAD = 1e-4, 1e-5
+
+
+@dataclasses.dataclass
+class Truth:
+    """Controllers read the true state (what every paper assumes; the default)."""
+
+
+@dataclasses.dataclass
+class Ekf:
+    """Controllers read an estimate: the sensors below and the relative-navigation filter.
+
+    update_period_s: the filter's tick; every sensor's period is a whole number of ticks.
+    lead_in_s: how long the sensors and the filter run before t = 0 (module docstring).
+    noise_scale: every sensor's noise times this (0: perfect fixes; 3: three times the
+        defaults). Outliers and dropouts keep their own probabilities.
+    boresight_C: the pose sensor's boresight in C; empty: the capture axis
+        (chaser.capture_point_C's direction).
+    pose_sensor, star_tracker, gyro, gnss: the sensors (their own docstrings give defaults
+        and sources).
+    acceleration_noise, torque_noise, inertia_noise: the filter's process noise densities
+        (rpod.models.relative_navigation.ProcessNoise).
+    prior_inertia_parameters, prior_inertia_sigma: what the filter assumes of the target's
+        inertia parameters (p_x, p_y) before it sees the tumble (InertiaPrior).
+    gate_probability, excitation_sigmas, max_step_s: the filter's tuning (FilterSettings).
+    """
+
+    update_period_s: float = positive(0.1, high=1.0)
+    lead_in_s: float = bounded(20.0, 0.0, 600.0)
+    noise_scale: float = bounded(1.0, 0.0, 100.0)
+    boresight_C: list[float] = bounded([], -1e3, 1e3)  # noqa: RUF009 (a field())
+    pose_sensor: PoseSensor = dataclasses.field(default_factory=PoseSensor)
+    star_tracker: StarTracker = dataclasses.field(default_factory=StarTracker)
+    gyro: Gyro = dataclasses.field(default_factory=Gyro)
+    gnss: Gnss = dataclasses.field(default_factory=Gnss)
+    acceleration_noise: float = positive(1e-5, high=1.0)
+    torque_noise: float = positive(1e-6, high=1.0)
+    inertia_noise: float = positive(1e-6, high=1.0)
+    prior_inertia_parameters: list[float] = bounded([0.0, 0.0], -0.99, 0.99)  # noqa: RUF009
+    prior_inertia_sigma: float = positive(0.15, high=1.0)
+    gate_probability: float = bounded(0.9999, 0.5, 1.0, high_open=True)
+    excitation_sigmas: float = bounded(10.0, 0.0, 1e3)
+    max_step_s: float = positive(0.25, high=10.0)
+
+    def validate(self) -> None:
+        """Raises ConfigError naming the first field that does not fit the others."""
+        if self.boresight_C and (
+            len(self.boresight_C) != 3 or not np.linalg.norm(self.boresight_C) > 0
+        ):
+            raise ConfigError("boresight_C", "must be empty or 3 numbers, not all zero")
+        if len(self.prior_inertia_parameters) != 2:
+            raise ConfigError("prior_inertia_parameters", "must be 2 numbers (p_x, p_y)")
+        for field, period in self.sensor_periods().items():
+            ticks = period / self.update_period_s
+            if abs(ticks - round(ticks)) > 1e-6 or round(ticks) < 1:
+                raise ConfigError(
+                    field,
+                    f"its period ({period:g} s) must be a whole number of update_period_s "
+                    f"({self.update_period_s:g} s)",
+                )
+
+    def sensor_periods(self) -> dict[str, float]:
+        """Each sensor's sample period [s], by the field that sets it."""
+        return {
+            "pose_sensor.rate_hz": 1.0 / self.pose_sensor.rate_hz,
+            "star_tracker.rate_hz": 1.0 / self.star_tracker.rate_hz,
+            "gyro.period_s": self.gyro.period_s,
+            "gnss.rate_hz": 1.0 / self.gnss.rate_hz,
+        }
+
+    def filter_settings(self) -> rn.FilterSettings:
+        """The filter's settings from this block."""
+        return rn.FilterSettings(
+            noise=rn.ProcessNoise(self.acceleration_noise, self.torque_noise, self.inertia_noise),
+            prior=rn.InertiaPrior(tuple(self.prior_inertia_parameters), self.prior_inertia_sigma),
+            gate_probability=self.gate_probability,
+            excitation_sigmas=self.excitation_sigmas,
+            max_step_s=self.max_step_s,
+        )
+
+
+NAVIGATION_CHOICES = (Truth, Ekf)
+
+
+def scaled_sensors(config: Ekf) -> tuple[PoseSensor, StarTracker, Gyro, Gnss]:
+    """The sensors with their noise times config.noise_scale."""
+    s = config.noise_scale
+    pose = dataclasses.replace(
+        config.pose_sensor,
+        position_floor_m=s * config.pose_sensor.position_floor_m,
+        range_noise_fraction=s * config.pose_sensor.range_noise_fraction,
+        attitude_sigma_deg=s * config.pose_sensor.attitude_sigma_deg,
+        star_tracker_arcsec=s * config.pose_sensor.star_tracker_arcsec,
+    )
+    star = dataclasses.replace(
+        config.star_tracker, sigma_arcsec=s * config.star_tracker.sigma_arcsec
+    )
+    gyro = dataclasses.replace(
+        config.gyro,
+        angle_random_walk_deg_rt_h=s * config.gyro.angle_random_walk_deg_rt_h,
+        bias_random_walk_deg_h_rt_h=s * config.gyro.bias_random_walk_deg_h_rt_h,
+        initial_bias_deg_h=s * config.gyro.initial_bias_deg_h,
+    )
+    gnss = dataclasses.replace(
+        config.gnss,
+        sigma_position_m=s * config.gnss.sigma_position_m,
+        sigma_velocity_m_s=s * config.gnss.sigma_velocity_m_s,
+    )
+    return pose, star, gyro, gnss
+
+
+@dataclasses.dataclass(frozen=True)
+class TruthSample:
+    """What the sensors see of the truth at one tick: the true sensed bundle and the chaser's
+    orbit (its GNSS fix and its velocity change come from it)."""
+
+    sensed: np.ndarray  # (33)
+    chaser_state_I: np.ndarray  # (6) [p_IC_I, v_IC_I]
+
+
+@dataclasses.dataclass(frozen=True)
+class NavigationMemory:
+    """Everything the navigation holds between ticks. Never changed in place: each tick makes a
+    new one, so Drake's clones of a context may share it."""
+
+    tick: int = -1  # the last tick done (its time is tick * period + start)
+    filter: rn.FilterState | None = None  # at the last fix used
+    first_fix: rn.PoseMeasurement | None = None  # before the filter has started
+    pending: tuple = ()  # fixes taken, not yet arrived
+    segments: tuple = ()  # (t0, t1, a_L) since the filter's time
+    estimate: rn.FilterState | None = None  # the filter carried to the last tick
+    chaser_last: np.ndarray | None = None  # chaser_state_I at the last tick (true)
+    gyro_bias: np.ndarray | None = None
+    q_IC: np.ndarray | None = None  # the chaser's attitude estimate at the last tick
+    w_IC_C: np.ndarray | None = None  # the last gyro sample
+    target_I: np.ndarray | None = None  # the target's orbit estimate at the last tick
+    R_IL: np.ndarray | None = None  # its LVLH frame at the last tick
+    w_IL_L: np.ndarray | None = None
+    counts: tuple = (0, 0, 0)  # fixes used, rejected, unseen
+    last_nis: float = math.nan
+
+    def __deepcopy__(self, memo):
+        return self
+
+
+class NavigationComputer:
+    """The navigation's computation, tick by tick, on plain arrays: the system's updates and
+    the lead-in call the same `tick`.
+
+    Args:
+        config: the scenario's Ekf block.
+        seed: the scenario's seed.
+        mean_motion_rad_s: the filter's CW mean motion (0 in free space).
+        gravity: the truth's gravity model's name (the target orbit's propagation).
+        boresight_C: the pose sensor's boresight, unit, in C.
+        start_s: the time of tick 0 (the lead-in's start, <= 0).
+    """
+
+    def __init__(
+        self,
+        config: Ekf,
+        seed: int,
+        mean_motion_rad_s: float,
+        gravity: str,
+        boresight_C,
+        start_s: float,
+    ):
+        self.config = config
+        self.seed = int(seed)
+        self.n = float(mean_motion_rad_s)
+        self.gravity = gravity
+        self.boresight_C = np.asarray(boresight_C, dtype=float)
+        self.start_s = float(start_s)
+        self.period_s = config.update_period_s
+        self.pose, self.star, self.gyro, self.gnss = scaled_sensors(config)
+        self.settings = config.filter_settings()
+        self.gate = rn.chi_square_quantile(self.settings.gate_probability, rn.MEASUREMENT_SIZE)
+        self.every = {
+            name: round(period / self.period_s) for name, period in config.sensor_periods().items()
+        }
+        self.latency_ticks = math.ceil(config.pose_sensor.latency_s / self.period_s - 1e-9)
+
+    def time_of(self, tick: int) -> float:
+        return self.start_s + tick * self.period_s
+
+    def _rng(self, stream: int, tick: int) -> np.random.Generator:
+        return np.random.default_rng((self.seed, stream, tick))
+
+    def _due(self, field: str, tick: int) -> bool:
+        return tick % self.every[field] == 0
+
+    # ------------------------------------------------------------------------------- filter
+
+    def _advance(self, state: rn.FilterState, t: float, segments) -> rn.FilterState:
+        """The filter carried to t through the known accelerations of `segments`: the nominal
+        segment by segment, the covariance in one prediction (its growth depends on the
+        tumble's nominal only, not on the thrust, so one call with steps of max_step_s gives
+        it at a third of the cost of one call per 0.1 s segment)."""
+        if t <= state.t + _TIME_TOLERANCE_S:
+            return state
+        s = self.settings
+        zero = (0.0, 0.0, 0.0)
+        covariance = rn.predict(state, t, self.n, s.noise, zero, s.max_step_s, s.excitation_sigmas)
+        nominal = state
+        for _, t1, a_L in segments:
+            end = min(t1, t)
+            if end > nominal.t + _TIME_TOLERANCE_S:
+                nominal = rn.propagate_nominal(nominal, end, self.n, a_L, s.max_step_s)
+        if t > nominal.t + _TIME_TOLERANCE_S:
+            nominal = rn.propagate_nominal(nominal, t, self.n, zero, s.max_step_s)
+        nominal.P = covariance.P
+        return nominal
+
+    def _use(self, memory: dict, fix: rn.PoseMeasurement) -> None:
+        """One arrived fix: starts the filter, or updates it at the fix's time."""
+        used, rejected, unseen = memory["counts"]
+        if memory["filter"] is None:
+            if memory["first_fix"] is None:
+                memory["first_fix"] = fix
+            else:
+                memory["filter"] = rn.initial_state(memory["first_fix"], fix, self.settings.prior)
+            memory["counts"] = (used + 1, rejected, unseen)
+            return
+        state = self._advance(memory["filter"], fix.t, memory["segments"])
+        result = rn.update(state, fix, self.gate, self.settings.excitation_sigmas)
+        memory["filter"] = result.state
+        memory["last_nis"] = result.nis
+        memory["counts"] = (used + result.accepted, rejected + (not result.accepted), unseen)
+
+    # --------------------------------------------------------------------------------- tick
+
+    def tick(self, previous: NavigationMemory, tick: int, truth: TruthSample) -> NavigationMemory:
+        """The navigation after tick `tick` (time `time_of(tick)`), from the one before."""
+        t = self.time_of(tick)
+        dt = self.period_s
+        memory = {f.name: getattr(previous, f.name) for f in dataclasses.fields(previous)}
+        sensed = Sensed.from_vector(truth.sensed)
+
+        # The chaser's thrust over the last tick, in L: its velocity change beyond gravity.
+        a_L = self._thrust_since(previous, truth.chaser_state_I, dt)
+        memory["chaser_last"] = np.array(truth.chaser_state_I, dtype=float)
+        segments = tuple(memory["segments"]) + ((t - dt, t, a_L),)
+
+        self._chaser_attitude(memory, previous, tick, sensed, dt)
+
+        # A pose fix taken now arrives latency_ticks later.
+        if self._due("pose_sensor.rate_hz", tick):
+            R_LC = rotation_from_wxyz(sensed.q_IL).T @ rotation_from_wxyz(sensed.q_IC)
+            fix, _ = self.pose.measure(
+                self._rng(_POSE, tick), t, sensed.p_LC_L, sensed.q_IT, R_LC, self.boresight_C
+            )
+            if fix is None:
+                used, rejected, unseen = memory["counts"]
+                memory["counts"] = (used, rejected, unseen + 1)
+            else:
+                fix = dataclasses.replace(
+                    fix,
+                    sigma_position_m=max(fix.sigma_position_m, _SIGMA_FLOOR_M),
+                    sigma_attitude_rad=max(fix.sigma_attitude_rad, _SIGMA_FLOOR_RAD),
+                )
+                memory["pending"] = tuple(memory["pending"]) + ((tick + self.latency_ticks, fix),)
+        memory["segments"] = segments
+        arrived = [fix for due, fix in memory["pending"] if due <= tick]
+        memory["pending"] = tuple((due, fix) for due, fix in memory["pending"] if due > tick)
+        for fix in arrived:
+            self._use(memory, fix)
+
+        if memory["filter"] is not None:
+            start = memory["filter"].t - _TIME_TOLERANCE_S
+            memory["segments"] = tuple(s for s in segments if s[1] > start)
+            if arrived or previous.estimate is None:  # from the fix just used
+                memory["estimate"] = self._advance(memory["filter"], t, memory["segments"])
+            else:  # no new fix: the last tick's nominal, one tick on (`covariance_at`)
+                memory["estimate"] = rn.propagate_nominal(
+                    previous.estimate, t, self.n, a_L, self.settings.max_step_s
+                )
+        self._target_orbit(memory, previous, tick, truth, dt)
+        memory["tick"] = tick
+        return NavigationMemory(**memory)
+
+    def _chaser_attitude(
+        self, memory, previous: NavigationMemory, tick, sensed: Sensed, dt
+    ) -> None:
+        """The last star-tracker fix carried by the gyro (module docstring)."""
+        bias = previous.gyro_bias
+        if bias is None:
+            bias = self.gyro.initial_bias(self._rng(_BIAS, 0))
+        q = previous.q_IC
+        if q is not None and previous.w_IC_C is not None:
+            q = quaternion_product(q, rotation_vector_quaternion(previous.w_IC_C * dt))
+        if self._due("gyro.period_s", tick):
+            w, bias = self.gyro.measure(self._rng(_GYRO, tick), sensed.w_IC_C, bias)
+            memory["w_IC_C"] = w
+        if self._due("star_tracker.rate_hz", tick) or q is None:
+            q = self.star.measure(self._rng(_STAR, tick), sensed.q_IC)
+        memory["gyro_bias"], memory["q_IC"] = bias, q
+
+    def _target_orbit(
+        self, memory, previous: NavigationMemory, tick, truth: TruthSample, dt
+    ) -> None:
+        """The target's orbit: carried by gravity; at a GNSS fix, the fix less the relative
+        estimate."""
+        target = previous.target_I
+        if target is not None:
+            target = _gravity_step(target, dt, self.gravity)
+        estimate = memory["estimate"]
+        if estimate is not None and (self._due("gnss.rate_hz", tick) or target is None):
+            p_IC, v_IC = self.gnss.measure(
+                self._rng(_GNSS, tick), truth.chaser_state_I[:3], truth.chaser_state_I[3:]
+            )
+            # LVLH from the last orbit estimate (or the chaser's fix: tens of metres from the
+            # target's at 7,000 km, a 1e-5 rad difference)
+            reference = target if target is not None else np.concatenate([p_IC, v_IC])
+            R_IL, w_IL_L = lvlh_of(reference[:3], reference[3:], self.gravity)
+            p_TC_I = R_IL @ estimate.p_LC_L
+            v_TC_I = R_IL @ (estimate.v_LC_L + np.cross(w_IL_L, estimate.p_LC_L))
+            target = np.concatenate([p_IC - p_TC_I, v_IC - v_TC_I])
+        memory["target_I"] = target
+        if target is not None:
+            memory["R_IL"], memory["w_IL_L"] = lvlh_of(target[:3], target[3:], self.gravity)
+
+    # ------------------------------------------------------------------------------- output
+
+    def covariance_at(self, memory: NavigationMemory) -> np.ndarray:
+        """The filter's covariance (14, 14) carried to the last tick (between fixes the tick
+        carries only the nominal; the covariance's growth does not depend on the thrust)."""
+        estimate, state = memory.estimate, memory.filter
+        if estimate is None:
+            return np.full((rn.ERROR_SIZE, rn.ERROR_SIZE), np.nan)
+        if estimate.t <= state.t + _TIME_TOLERANCE_S:
+            return state.P
+        s = self.settings
+        return rn.predict(
+            state, estimate.t, self.n, s.noise, (0.0, 0.0, 0.0), s.max_step_s, s.excitation_sigmas
+        ).P
+
+    def _thrust_since(self, memory: NavigationMemory, chaser_state_I, dt: float) -> np.ndarray:
+        """The chaser's mean thrust acceleration in L over the dt since memory's tick: its
+        velocity change less gravity's (trapezoid: ~1e-8 m/s^2 over 0.1 s in low orbit), what
+        an accelerometer's delta-v gives. Zero before the first tick or target orbit."""
+        if memory.chaser_last is None or memory.R_IL is None or not dt > 0.0:
+            return np.zeros(3)
+        p0, v0 = memory.chaser_last[:3], memory.chaser_last[3:]
+        p1, v1 = chaser_state_I[:3], chaser_state_I[3:]
+        g0 = gravity_acceleration_xyz(*p0.tolist(), self.gravity)
+        g1 = gravity_acceleration_xyz(*p1.tolist(), self.gravity)
+        gravity = 0.5 * (np.array(g0) + np.array(g1))
+        return memory.R_IL.T @ ((v1 - v0) / dt - gravity)
+
+    def sensed_at(self, memory: NavigationMemory, t: float, chaser_state_I) -> np.ndarray:
+        """The `sensed` vector (33) the estimate gives at t (>= the last tick's time), the
+        chaser's thrust since that tick included (its accelerometer is read at t)."""
+        if memory.estimate is None or memory.target_I is None:
+            return np.full(SENSED_SIZE, np.nan)
+        dt = t - memory.estimate.t
+        if dt > 0.0:
+            a_L = self._thrust_since(memory, np.asarray(chaser_state_I), dt)
+            state = rn.propagate_nominal(
+                memory.estimate, t, self.n, a_L, max_step_s=self.settings.max_step_s
+            )
+            target = _gravity_step(memory.target_I, dt, self.gravity)
+            R_IL, w_IL_L = lvlh_of(target[:3], target[3:], self.gravity)
+        else:
+            state, target = memory.estimate, memory.target_I
+            R_IL, w_IL_L = memory.R_IL, memory.w_IL_L
+        q_IC = quaternion_product(memory.q_IC, rotation_vector_quaternion(memory.w_IC_C * dt))
+        return sensed_vector(
+            np.concatenate([state.p_LC_L, state.v_LC_L]),
+            quaternion_wxyz(R_IL),
+            w_IL_L,
+            np.concatenate([state.q_IT, state.w_IT_T]),
+            np.concatenate([q_IC, memory.w_IC_C]),
+            target,
+        )
+
+
+def _gravity_step(state_I: np.ndarray, dt: float, gravity: str) -> np.ndarray:
+    """A free orbit under the gravity model carried by dt (at most a tick: 0.1 s), to second
+    order: p + v dt + g dt^2 / 2, v + g dt with g at the middle of the step (error ~1e-5 m
+    and ~1e-6 m/s in low orbit, far below a GNSS fix's)."""
+    p, v = state_I[:3], state_I[3:]
+    middle = p + 0.5 * dt * v
+    g = np.array(gravity_acceleration_xyz(*middle.tolist(), gravity))
+    return np.concatenate([p + dt * v + 0.5 * dt * dt * g, v + dt * g])
+
+
+class RelativeNavigation(LeafSystem):
+    """The sensors and the filter, ticking every `update_period_s` on the truth.
+
+    Input ports:
+        truth_sensed (33): the true bundle (rpod.systems.sensed's layout), what the sensors see.
+        chaser_state_I (6): the chaser's true orbit (GNSS, and its velocity change).
+    Output ports:
+        sensed (33): the estimate, carried to the instant it is read (with the thrust since
+            the last tick, from chaser_state_I: the only output that reads an input).
+        estimate (15): [p_LC_L, v_LC_L, q_IT, w_IT_T, p_x, p_y] at the last tick.
+        covariance (196): the filter's error covariance (14 x 14, row by row) at the last tick,
+            in the error state [dp, dv, dtheta_T, dw_T, dk] of rpod.models.relative_navigation.
+        navigation_status (4): STATUS_FIELDS.
+
+    Args:
+        computer: the navigation's computation (its config, seed and models).
+        start: the memory after the lead-in (its last tick ends at or before t = 0).
+    """
+
+    def __init__(self, computer: NavigationComputer, start: NavigationMemory):
+        super().__init__()
+        self._computer = computer
+        self._truth_port = self.DeclareVectorInputPort("truth_sensed", SENSED_SIZE)
+        self._chaser_port = self.DeclareVectorInputPort("chaser_state_I", 6)
+        self._memory = self.DeclareAbstractState(Value[object](start))
+        self._first_tick = start.tick + 1
+        self.DeclarePeriodicUnrestrictedUpdateEvent(
+            computer.period_s, computer.time_of(self._first_tick), self._update
+        )
+        state = {self.abstract_state_ticket(self._memory)}
+        self.DeclareVectorOutputPort(
+            "sensed",
+            SENSED_SIZE,
+            self._calc_sensed,
+            state | {self.time_ticket(), self.input_port_ticket(self._chaser_port.get_index())},
+        )
+        self.DeclareVectorOutputPort("estimate", ESTIMATE_SIZE, self._calc_estimate, state)
+        size = rn.ERROR_SIZE * rn.ERROR_SIZE
+        self.DeclareVectorOutputPort("covariance", size, self._calc_covariance, state)
+        self.DeclareVectorOutputPort(
+            "navigation_status", len(STATUS_FIELDS), self._calc_status, state
+        )
+
+    @property
+    def computer(self) -> NavigationComputer:
+        """The computation it runs."""
+        return self._computer
+
+    def _memory_of(self, context) -> NavigationMemory:
+        return context.get_abstract_state(self._memory).get_value()
+
+    def _update(self, context, state) -> None:
+        memory = self._memory_of(context)
+        t = context.get_time()
+        tick = round((t - self._computer.start_s) / self._computer.period_s)
+        truth = TruthSample(
+            np.array(self._truth_port.Eval(context)), np.array(self._chaser_port.Eval(context))
+        )
+        state.get_mutable_abstract_state(self._memory).set_value(
+            self._computer.tick(memory, tick, truth)
+        )
+
+    def _calc_sensed(self, context, output) -> None:
+        output.SetFromVector(
+            self._computer.sensed_at(
+                self._memory_of(context), context.get_time(), self._chaser_port.Eval(context)
+            )
+        )
+
+    def _calc_estimate(self, context, output) -> None:
+        estimate = self._memory_of(context).estimate
+        if estimate is None:
+            output.SetFromVector(np.full(ESTIMATE_SIZE, np.nan))
+            return
+        output.SetFromVector(rn.nominal_vector(estimate))
+
+    def _calc_covariance(self, context, output) -> None:
+        output.SetFromVector(self._computer.covariance_at(self._memory_of(context)).ravel())
+
+    def _calc_status(self, context, output) -> None:
+        memory = self._memory_of(context)
+        output.SetFromVector(np.array([*memory.counts, memory.last_nis], dtype=float))
