@@ -297,6 +297,15 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
         )
         if wiring is not None:
             plugin.add_scene_extras(builder, meshcat, scenario, wiring, scene)
+        if navigation is not None:  # where the controller believes the target is
+            from rpod.systems.navigation_scene import EstimatedTargetGhost
+
+            ghost = builder.AddNamedSystem(
+                "estimated_target",
+                EstimatedTargetGhost(meshcat, geometry, scenario.visualization.publish_period_s),
+            )
+            connect(truth_port, ghost.GetInputPort("truth_sensed"))
+            connect(sensed_port, ghost.GetInputPort("estimated_sensed"))
 
     # Every scene system (the bodies, the overlays, a method's extras) is published by one
     # driver from the Simulator's monitor: no drawing adds a step (rpod.systems.scene).

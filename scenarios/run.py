@@ -419,7 +419,12 @@ def run_to_folder(
         np.savez_compressed(staging / "log.npz", **result.log)
         (staging / "scenario.yaml").write_text(dump_scenario(scenario))
         plugin = plugin_for(scenario.controller)  # its own figures beside the generic ones
-        plots = write_plots(result.log, staging / "plots", name, [plugin] if plugin else [])
+        figures = [plugin] if plugin else []
+        if "nav_p_LC_L" in result.log:  # flown on an estimate: the navigation's figure
+            from rpod.diagrams.navigation_plots import NAVIGATION_FIGURES
+
+            figures.append(NAVIGATION_FIGURES)
+        plots = write_plots(result.log, staging / "plots", name, figures)
         summary["plots"] = [p.name for p in plots]
         if meshcat is not None:
             from rpod.diagrams.recording import save_recording_html

@@ -236,7 +236,7 @@ def convex_hull_obj(vertices: np.ndarray) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _body_shape(name: str, box_size_m, vertices):
+def body_shape(name: str, box_size_m, vertices):
     """A Box, or a Convex hull of the vertices when there are any."""
     if len(vertices):
         obj = convex_hull_obj(np.asarray(vertices, dtype=float))
@@ -301,14 +301,14 @@ class RendezvousScene(LeafSystem):
         self._target_frame_id = self._RegisterBody(
             scene_graph,
             "target",
-            _body_shape("target", geometry.target_box_size_m, geometry.target_vertices_T),
+            body_shape("target", geometry.target_box_size_m, geometry.target_vertices_T),
             geometry.body_extent_m("target"),
             TARGET_RGBA,
         )
         self._chaser_frame_id = self._RegisterBody(
             scene_graph,
             "chaser",
-            _body_shape("chaser", geometry.chaser_box_size_m, geometry.chaser_vertices_C),
+            body_shape("chaser", geometry.chaser_box_size_m, geometry.chaser_vertices_C),
             geometry.body_extent_m("chaser"),
             CHASER_RGBA,
         )

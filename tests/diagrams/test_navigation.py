@@ -156,3 +156,52 @@ def test_bad_navigation_fields_are_named(overrides, field):
     with pytest.raises(ConfigError) as caught:
         validate_scenario(scenario)
     assert caught.value.field == field
+
+
+def test_the_navigation_figure_is_drawn_from_the_log(flown_on_the_estimate, tmp_path):
+    from rpod.diagrams.navigation_plots import NAVIGATION_FIGURES
+    from rpod.diagrams.plots import write_plots
+
+    _, result = flown_on_the_estimate
+    written = write_plots(result.log, tmp_path, "hold_point", [NAVIGATION_FIGURES])
+    assert tmp_path / "navigation.png" in written
+    assert (tmp_path / "navigation.png").stat().st_size > 50_000  # five panels of curves
+
+
+GHOST_ONLY = """
+setTimeout(function() {
+  const hide = (path) => viewer.handle_command(
+      {type: "set_property", path: path, property: "visible", value: false});
+  ["/Grid", "/Axes", "/Background", "/drake/rpod/bodies"].forEach(hide);
+  ["trail", "target_frame", "lvlh_triad"].forEach((name) => hide("/drake/rpod/overlay/" + name));
+  viewer.animator.pause();
+  viewer.animator.seek(5);
+  viewer.camera.position.set(3, -3, 2.5);
+  viewer.controls.target.set(0, 0, 0);
+  viewer.controls.update();
+}, 1500);
+"""
+
+
+def test_the_recording_draws_the_estimated_target_as_a_translucent_copy(tmp_path):
+    from matplotlib import image as mpimg
+
+    from rpod.diagrams.recording import (
+        find_chromium,
+        make_headless_meshcat,
+        save_recording_html,
+        screenshot_html,
+    )
+
+    if find_chromium() is None:
+        pytest.skip("needs Chromium")
+    meshcat = make_headless_meshcat()
+    simulate(dataclasses.replace(_hold_point(10.0), navigation=Ekf()), meshcat=meshcat)
+    html = tmp_path / "recording.html"
+    save_recording_html(meshcat, html)
+    png = tmp_path / "ghost.png"
+    assert screenshot_html(html, png, 120.0, (800, 600), script=GHOST_ONLY, attempts=3)
+    image = mpimg.imread(png)[24:, :, :3]  # below Meshcat's control bar
+    red, green, blue = image[..., 0], image[..., 1], image[..., 2]
+    violet = (blue > green + 0.1) & (red > green + 0.05)  # GHOST_RGBA over white
+    assert np.count_nonzero(violet) > 20_000  # the 2 m box at ~4.7 m fills much of the view
