@@ -16,7 +16,8 @@ What the estimate is made of, every `update_period_s` (one tick):
   the tick's mean of what the chaser's velocity change says beyond gravity (an accelerometer's
   delta-v; the flight software knows what it fired);
 - the chaser's attitude: the last star-tracker fix carried by the gyro's rates (bias not
-  estimated: 1 deg/h over the 0.2 s between fixes is 0.2 arcsec, below the tracker's 10);
+  estimated: 1 deg/h over the 0.2 s between fixes is 0.2 arcsec, below the tracker's 10); its
+  rate: the gyro's mean over `gyro_window_s`;
 - the target's orbit: the chaser's GNSS fix less the relative estimate, carried between fixes
   by the truth's gravity model; LVLH (q_IL, w_IL_L) is that orbit's.
 Between ticks the output carries the last estimate to the instant it is read (RK4 on the
@@ -69,9 +70,13 @@ NAVIGATION_LOG_KEYS = {
 # The random streams, one per sensor (module docstring).
 _POSE, _STAR, _GYRO, _GNSS, _BIAS = range(5)
 _TIME_TOLERANCE_S = 1e-9
-# The filter's measurement sigma is never below these: a noise-free sensor (noise_scale 0)
-# would make the innovation covariance singular once the filter has converged.
-_SIGMA_FLOOR_M, _SIGMA_FLOOR_RAD = 1e-4, 1e-5
+_ZERO = (0.0, 0.0, 0.0)
+_ZERO3 = np.zeros(3)
+# The filter's measurement sigma is never below these (1 mm, 0.06 deg). With noise-free fixes
+# (noise_scale 0) and floors 100 times smaller, the Euler model's error while the inertia is
+# still being learned stood out of the innovation's tiny covariance: the gate refused every fix
+# from 4 s on, and the estimate drifted (3 mm in 20 s on hold_point).
+_SIGMA_FLOOR_M, _SIGMA_FLOOR_RAD = 1e-3, 1e-3
 
 
 @dataclasses.dataclass
@@ -89,13 +94,19 @@ class Ekf:
         defaults). Outliers and dropouts keep their own probabilities.
     boresight_C: the pose sensor's boresight in C; empty: the capture axis
         (chaser.capture_point_C's direction).
+    gyro_window_s: the chaser's rate is the mean of the gyro's samples over this window (an
+        integrating gyro's angle increments over 1 s: 0.0025 deg/s of noise at the default
+        angle random walk, against 0.008 deg/s for one 0.1 s sample; the paper 001 NMPC
+        missed its 1 deg grasp tolerance on raw samples).
     pose_sensor, star_tracker, gyro, gnss: the sensors (their own docstrings give defaults
         and sources).
     acceleration_noise, torque_noise, inertia_noise: the filter's process noise densities
-        (rpod.models.relative_navigation.ProcessNoise). torque_noise is 30 times the
-        model's own default: it also covers the Euler equations' error when the target's
-        principal axes are not T's, which the filter assumes (hold_point's target is a few
-        degrees off; its kinematic NEES mean there: 41 at 1e-6, 8 at 3e-5, for 12 expected).
+        (rpod.models.relative_navigation.ProcessNoise). The filter assumes the target's
+        principal axes are T's; where they are not (hold_point's target: a few degrees off),
+        raise torque_noise to cover the Euler equations' error (hold_point's kinematic NEES
+        mean: 41 at 1e-6, 8 at 3e-5, for 12 expected). The default stays at 1e-6: a larger
+        one lets the rate estimate wander, and paper 001's grasp, which predicts the tumble
+        over minutes, then misses its 1 deg tolerance (3 deg at 3e-5).
     prior_inertia_parameters, prior_inertia_sigma: what the filter assumes of the target's
         inertia parameters (p_x, p_y) before it sees the tumble (InertiaPrior).
     gate_probability, excitation_sigmas, max_step_s: the filter's tuning (FilterSettings).
@@ -105,12 +116,13 @@ class Ekf:
     lead_in_s: float = bounded(20.0, 0.0, 600.0)
     noise_scale: float = bounded(1.0, 0.0, 100.0)
     boresight_C: list[float] = bounded([], -1e3, 1e3)  # noqa: RUF009 (a field())
+    gyro_window_s: float = positive(1.0, high=60.0)
     pose_sensor: PoseSensor = dataclasses.field(default_factory=PoseSensor)
     star_tracker: StarTracker = dataclasses.field(default_factory=StarTracker)
     gyro: Gyro = dataclasses.field(default_factory=Gyro)
     gnss: Gnss = dataclasses.field(default_factory=Gnss)
     acceleration_noise: float = positive(1e-5, high=1.0)
-    torque_noise: float = positive(3e-5, high=1.0)
+    torque_noise: float = positive(1e-6, high=1.0)
     inertia_noise: float = positive(1e-6, high=1.0)
     prior_inertia_parameters: list[float] = bounded([0.0, 0.0], -0.99, 0.99)  # noqa: RUF009
     prior_inertia_sigma: float = positive(0.15, high=1.0)
@@ -203,12 +215,13 @@ class NavigationMemory:
     filter: rn.FilterState | None = None  # at the last fix used
     first_fix: rn.PoseMeasurement | None = None  # before the filter has started
     pending: tuple = ()  # fixes taken, not yet arrived
-    segments: tuple = ()  # (t0, t1, a_L) since the filter's time
+    segments: tuple = ()  # (t0, t1, (dp_L, dv_L)): the thrust's increments, tick by tick
     estimate: rn.FilterState | None = None  # the filter carried to the last tick
     chaser_last: np.ndarray | None = None  # chaser_state_I at the last tick (true)
     gyro_bias: np.ndarray | None = None
     q_IC: np.ndarray | None = None  # the chaser's attitude estimate at the last tick
-    w_IC_C: np.ndarray | None = None  # the last gyro sample
+    w_IC_C: np.ndarray | None = None  # the mean of gyro_samples
+    gyro_samples: tuple = ()  # the last gyro_window_s of gyro samples
     target_I: np.ndarray | None = None  # the target's orbit estimate at the last tick
     R_IL: np.ndarray | None = None  # its LVLH frame at the last tick
     w_IL_L: np.ndarray | None = None
@@ -254,6 +267,7 @@ class NavigationComputer:
         self.every = {
             name: round(period / self.period_s) for name, period in config.sensor_periods().items()
         }
+        self.gyro_window = max(1, round(config.gyro_window_s / config.gyro.period_s))
         self.latency_ticks = math.ceil(config.pose_sensor.latency_s / self.period_s - 1e-9)
 
     def time_of(self, tick: int) -> float:
@@ -268,24 +282,32 @@ class NavigationComputer:
     # ------------------------------------------------------------------------------- filter
 
     def _advance(self, state: rn.FilterState, t: float, segments) -> rn.FilterState:
-        """The filter carried to t through the known accelerations of `segments`: the nominal
-        segment by segment, the covariance in one prediction (its growth depends on the
-        tumble's nominal only, not on the thrust, so one call with steps of max_step_s gives
-        it at a third of the cost of one call per 0.1 s segment)."""
+        """The filter carried to t (a tick) through the thrust of `segments` (whole ticks): the
+        nominal tick by tick, unforced, plus each tick's thrust increments; the covariance in
+        one prediction (the thrust is a known input: the covariance's growth depends on the
+        tumble's nominal only, and one call with steps of max_step_s costs a third of one
+        call per tick)."""
         if t <= state.t + _TIME_TOLERANCE_S:
             return state
         s = self.settings
-        zero = (0.0, 0.0, 0.0)
-        covariance = rn.predict(state, t, self.n, s.noise, zero, s.max_step_s, s.excitation_sigmas)
+        covariance = rn.predict(state, t, self.n, s.noise, _ZERO, s.max_step_s, s.excitation_sigmas)
         nominal = state
-        for _, t1, a_L in segments:
-            end = min(t1, t)
-            if end > nominal.t + _TIME_TOLERANCE_S:
-                nominal = rn.propagate_nominal(nominal, end, self.n, a_L, s.max_step_s)
+        for t0, t1, increments in segments:
+            if t0 >= nominal.t - _TIME_TOLERANCE_S and t1 <= t + _TIME_TOLERANCE_S:
+                nominal = self._carry(nominal, t1, increments)
         if t > nominal.t + _TIME_TOLERANCE_S:
-            nominal = rn.propagate_nominal(nominal, t, self.n, zero, s.max_step_s)
+            nominal = rn.propagate_nominal(nominal, t, self.n, _ZERO, s.max_step_s)
         nominal.P = covariance.P
         return nominal
+
+    def _carry(self, state: rn.FilterState, t: float, increments) -> rn.FilterState:
+        """The nominal carried to t unforced, plus the thrust's increments over the interval
+        (the CW coupling of thrust within a 0.1 s tick, n dt ~ 1e-4 of it, is left out)."""
+        out = rn.propagate_nominal(state, t, self.n, _ZERO, self.settings.max_step_s)
+        dp_L, dv_L = increments
+        out.p_LC_L = out.p_LC_L + dp_L
+        out.v_LC_L = out.v_LC_L + dv_L
+        return out
 
     def _use(self, memory: dict, fix: rn.PoseMeasurement) -> None:
         """One arrived fix: starts the filter, or updates it at the fix's time."""
@@ -313,9 +335,9 @@ class NavigationComputer:
         sensed = Sensed.from_vector(truth.sensed)
 
         # The chaser's thrust over the last tick, in L: its velocity change beyond gravity.
-        a_L = self._thrust_since(previous, truth.chaser_state_I, dt)
+        increments = self._thrust_since(previous, truth.chaser_state_I, dt)
         memory["chaser_last"] = np.array(truth.chaser_state_I, dtype=float)
-        segments = tuple(memory["segments"]) + ((t - dt, t, a_L),)
+        segments = tuple(memory["segments"]) + ((t - dt, t, increments),)
 
         self._chaser_attitude(memory, previous, tick, sensed, dt)
 
@@ -347,9 +369,7 @@ class NavigationComputer:
             if arrived or previous.estimate is None:  # from the fix just used
                 memory["estimate"] = self._advance(memory["filter"], t, memory["segments"])
             else:  # no new fix: the last tick's nominal, one tick on (`covariance_at`)
-                memory["estimate"] = rn.propagate_nominal(
-                    previous.estimate, t, self.n, a_L, self.settings.max_step_s
-                )
+                memory["estimate"] = self._carry(previous.estimate, t, increments)
         self._target_orbit(memory, previous, tick, truth, dt)
         memory["tick"] = tick
         return NavigationMemory(**memory)
@@ -366,7 +386,9 @@ class NavigationComputer:
             q = quaternion_product(q, rotation_vector_quaternion(previous.w_IC_C * dt))
         if self._due("gyro.period_s", tick):
             w, bias = self.gyro.measure(self._rng(_GYRO, tick), sensed.w_IC_C, bias)
-            memory["w_IC_C"] = w
+            samples = (*previous.gyro_samples, w)[-self.gyro_window :]
+            memory["gyro_samples"] = samples
+            memory["w_IC_C"] = np.mean(samples, axis=0)
         if self._due("star_tracker.rate_hz", tick) or q is None:
             q = self.star.measure(self._rng(_STAR, tick), sensed.q_IC)
         memory["gyro_bias"], memory["q_IC"] = bias, q
@@ -407,21 +429,29 @@ class NavigationComputer:
             return state.P
         s = self.settings
         return rn.predict(
-            state, estimate.t, self.n, s.noise, (0.0, 0.0, 0.0), s.max_step_s, s.excitation_sigmas
+            state, estimate.t, self.n, s.noise, _ZERO, s.max_step_s, s.excitation_sigmas
         ).P
 
-    def _thrust_since(self, memory: NavigationMemory, chaser_state_I, dt: float) -> np.ndarray:
-        """The chaser's mean thrust acceleration in L over the dt since memory's tick: its
-        velocity change less gravity's (trapezoid: ~1e-8 m/s^2 over 0.1 s in low orbit), what
-        an accelerometer's delta-v gives. Zero before the first tick or target orbit."""
+    def _thrust_since(self, memory: NavigationMemory, chaser_state_I, dt: float):
+        """(dp_L, dv_L): what the chaser's thrust added to its position and velocity over the
+        dt since memory's tick, in L. What an IMU's accelerometer gives the navigation
+        computer integrated at its own rate (hundreds of Hz), emulated from the truth: the
+        chaser's change beyond its start velocity and gravity, gravity taken linear over the
+        interval (its error, ~1e-8 m/s^2 over 0.1 s in low orbit, is far below any thrust).
+        Both increments, not a mean acceleration: a PWM fires early in its period, and a
+        mean acceleration spread over the tick misplaces the position by a dt^2 / 8 every
+        tick, a bias the fixes then read as a velocity error (0.45 mm/s on hold_point).
+        Zero before the first tick."""
         if memory.chaser_last is None or memory.R_IL is None or not dt > 0.0:
-            return np.zeros(3)
+            return _ZERO3, _ZERO3
         p0, v0 = memory.chaser_last[:3], memory.chaser_last[3:]
         p1, v1 = chaser_state_I[:3], chaser_state_I[3:]
-        g0 = gravity_acceleration_xyz(*p0.tolist(), self.gravity)
-        g1 = gravity_acceleration_xyz(*p1.tolist(), self.gravity)
-        gravity = 0.5 * (np.array(g0) + np.array(g1))
-        return memory.R_IL.T @ ((v1 - v0) / dt - gravity)
+        g0 = np.array(gravity_acceleration_xyz(*p0.tolist(), self.gravity))
+        g1 = np.array(gravity_acceleration_xyz(*p1.tolist(), self.gravity))
+        dv_I = v1 - v0 - 0.5 * dt * (g0 + g1)
+        dp_I = p1 - p0 - v0 * dt - dt * dt * (g0 / 3.0 + g1 / 6.0)
+        R_LI = memory.R_IL.T
+        return R_LI @ dp_I, R_LI @ dv_I
 
     def sensed_at(self, memory: NavigationMemory, t: float, chaser_state_I) -> np.ndarray:
         """The `sensed` vector (33) the estimate gives at t (>= the last tick's time), the
@@ -430,10 +460,8 @@ class NavigationComputer:
             return np.full(SENSED_SIZE, np.nan)
         dt = t - memory.estimate.t
         if dt > 0.0:
-            a_L = self._thrust_since(memory, np.asarray(chaser_state_I), dt)
-            state = rn.propagate_nominal(
-                memory.estimate, t, self.n, a_L, max_step_s=self.settings.max_step_s
-            )
+            increments = self._thrust_since(memory, np.asarray(chaser_state_I), dt)
+            state = self._carry(memory.estimate, t, increments)
             target = _gravity_step(memory.target_I, dt, self.gravity)
             R_IL, w_IL_L = lvlh_of(target[:3], target[3:], self.gravity)
         else:
