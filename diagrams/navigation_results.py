@@ -107,7 +107,7 @@ def navigation_summary(log: dict, true_inertia_kg_m2) -> dict:
             float(np.mean((judged >= low) & (judged <= high))) if judged.size else None
         ),
         "nees_judged_after_s": CONVERGED_AFTER_S,
-        **{name: int(value) for name, value in zip(STATUS_FIELDS[:3], status[:3])},
+        **{name: int(value) for name, value in zip(STATUS_FIELDS[:4], status[:4])},
     }
     J = np.asarray(true_inertia_kg_m2, dtype=float)
     estimate = log["nav_inertia_parameters"][-1]

@@ -43,7 +43,7 @@ from pydrake.systems.framework import LeafSystem
 
 from rpod.models import relative_navigation as rn
 from rpod.models.chaser_sensors import Gnss, Gyro, StarTracker
-from rpod.models.config import ConfigError, bounded, positive
+from rpod.models.config import ConfigError, bounded, count, positive
 from rpod.models.frames import (
     quaternion_product,
     quaternion_wxyz,
@@ -57,7 +57,7 @@ from rpod.systems.sensed import SENSED_SIZE, Sensed, sensed_vector
 
 ESTIMATE_SIZE = 15
 """The `estimate` port: [p_LC_L, v_LC_L, q_IT, w_IT_T, inertia parameters (p_x, p_y)]."""
-STATUS_FIELDS = ("fixes_used", "fixes_rejected", "fixes_unseen", "last_nis")
+STATUS_FIELDS = ("fixes_used", "fixes_rejected", "fixes_unseen", "filter_restarts", "last_nis")
 """The `navigation_status` port, in this order (counts since the lead-in began)."""
 
 NAVIGATION_LOG_KEYS = {
@@ -110,6 +110,8 @@ class Ekf:
     prior_inertia_parameters, prior_inertia_sigma: what the filter assumes of the target's
         inertia parameters (p_x, p_y) before it sees the tumble (InertiaPrior).
     gate_probability, excitation_sigmas, max_step_s: the filter's tuning (FilterSettings).
+    restart_after_rejections: this many fixes refused in a row are not outliers but a filter
+        that has diverged: it starts again from the next fixes, keeping its inertia estimate.
     """
 
     update_period_s: float = positive(0.1, high=1.0)
@@ -129,6 +131,7 @@ class Ekf:
     gate_probability: float = bounded(0.9999, 0.5, 1.0, high_open=True)
     excitation_sigmas: float = bounded(10.0, 0.0, 1e3)
     max_step_s: float = positive(0.25, high=10.0)
+    restart_after_rejections: int = count(4, 1, 1000)
 
     def validate(self) -> None:
         """Raises ConfigError naming the first field that does not fit the others."""
@@ -225,7 +228,9 @@ class NavigationMemory:
     target_I: np.ndarray | None = None  # the target's orbit estimate at the last tick
     R_IL: np.ndarray | None = None  # its LVLH frame at the last tick
     w_IL_L: np.ndarray | None = None
-    counts: tuple = (0, 0, 0)  # fixes used, rejected, unseen
+    counts: tuple = (0, 0, 0, 0)  # fixes used, rejected, unseen; restarts
+    rejected_in_a_row: int = 0
+    prior: rn.InertiaPrior | None = None  # a restart's (None: the settings')
     last_nis: float = math.nan
 
     def __deepcopy__(self, memo):
@@ -311,19 +316,36 @@ class NavigationComputer:
 
     def _use(self, memory: dict, fix: rn.PoseMeasurement) -> None:
         """One arrived fix: starts the filter, or updates it at the fix's time."""
-        used, rejected, unseen = memory["counts"]
+        used, rejected, unseen, restarts = memory["counts"]
         if memory["filter"] is None:
             if memory["first_fix"] is None:
                 memory["first_fix"] = fix
             else:
-                memory["filter"] = rn.initial_state(memory["first_fix"], fix, self.settings.prior)
-            memory["counts"] = (used + 1, rejected, unseen)
+                prior = memory["prior"] or self.settings.prior
+                memory["filter"] = rn.initial_state(memory["first_fix"], fix, prior)
+            memory["counts"] = (used + 1, rejected, unseen, restarts)
             return
         state = self._advance(memory["filter"], fix.t, memory["segments"])
         result = rn.update(state, fix, self.gate, self.settings.excitation_sigmas)
         memory["filter"] = result.state
         memory["last_nis"] = result.nis
-        memory["counts"] = (used + result.accepted, rejected + (not result.accepted), unseen)
+        in_a_row = 0 if result.accepted else memory["rejected_in_a_row"] + 1
+        if in_a_row >= self.config.restart_after_rejections:
+            # Not outliers: the filter has diverged (its model is wrong, or a manoeuvre it was
+            # not told of). Start again from this fix and the next, keeping what it learned of
+            # the inertia (its sigma at least the prior's: the learning may be what went wrong).
+            k = state.inertia_parameters
+            sigma = max(self.settings.prior.sigma, *np.sqrt(np.diag(state.P)[rn.K_SLICE]))
+            memory["prior"] = rn.InertiaPrior((float(k[0]), float(k[1])), float(sigma))
+            memory["filter"], memory["first_fix"], in_a_row = None, fix, 0
+            restarts += 1
+        memory["rejected_in_a_row"] = in_a_row
+        memory["counts"] = (
+            used + result.accepted,
+            rejected + (not result.accepted),
+            unseen,
+            restarts,
+        )
 
     # --------------------------------------------------------------------------------- tick
 
@@ -348,8 +370,8 @@ class NavigationComputer:
                 self._rng(_POSE, tick), t, sensed.p_LC_L, sensed.q_IT, R_LC, self.boresight_C
             )
             if fix is None:
-                used, rejected, unseen = memory["counts"]
-                memory["counts"] = (used, rejected, unseen + 1)
+                used, rejected, unseen, restarts = memory["counts"]
+                memory["counts"] = (used, rejected, unseen + 1, restarts)
             else:
                 fix = dataclasses.replace(
                     fix,
@@ -370,6 +392,8 @@ class NavigationComputer:
                 memory["estimate"] = self._advance(memory["filter"], t, memory["segments"])
             else:  # no new fix: the last tick's nominal, one tick on (`covariance_at`)
                 memory["estimate"] = self._carry(previous.estimate, t, increments)
+        elif previous.estimate is not None:  # restarting: the old estimate carried meanwhile
+            memory["estimate"] = self._carry(previous.estimate, t, increments)
         self._target_orbit(memory, previous, tick, truth, dt)
         memory["tick"] = tick
         return NavigationMemory(**memory)
@@ -425,6 +449,8 @@ class NavigationComputer:
         estimate, state = memory.estimate, memory.filter
         if estimate is None:
             return np.full((rn.ERROR_SIZE, rn.ERROR_SIZE), np.nan)
+        if state is None:  # restarting: the old filter's, as it stood
+            return estimate.P
         if estimate.t <= state.t + _TIME_TOLERANCE_S:
             return state.P
         s = self.settings
