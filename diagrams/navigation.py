@@ -121,7 +121,7 @@ def run_lead_in(computer: NavigationComputer, coasting_truth) -> NavigationMemor
     for k, sample in enumerate(lead_in_samples(coasting_truth, times)):
         memory = computer.tick(memory, k, sample)
     if memory.estimate is None:
-        used, _, unseen = memory.counts
+        used, _, unseen, _ = memory.counts
         raise ConfigError(
             "navigation.lead_in_s",
             f"the filter has not started by t = 0: the pose sensor gave {used} fix(es) in the "

@@ -244,6 +244,14 @@ def run_line(name: str, summary: dict, out_dir) -> str:
         head = f"SIMULATION {summary['status'].upper()}"
     else:
         head = mission.get("outcome", "ran")
+    navigation = summary.get("navigation")
+    if navigation:  # flown on an estimate: say so, and how good it was, beside the outcome
+        errors = navigation["errors"]
+        head += (
+            f"; on the EKF's estimate (position RMS {errors['position']['rms']:.3g} m, "
+            f"attitude RMS {errors['attitude']['rms']:.2g} deg, "
+            f"{navigation['fixes_rejected']} fixes rejected)"
+        )
     return (
         f"{name}: {head}; {summary['sim_time_s']:.0f} s simulated in "
         f"{summary['wall_time_s']:.1f} s ({summary['real_time_factor']:.0f}x real time), "

@@ -1,0 +1,36 @@
+"""`rpod run` on an estimate: one `--set` flies any scenario on `navigation: !Ekf`, and the line,
+summary.json and the plots say that it did and how good the estimate was; a sensor that never
+sees the target is one line naming the field."""
+
+import json
+
+from campaign_helpers import run_rpod_in_process
+
+
+def test_a_run_on_the_estimate_says_so(tmp_path):
+    out = tmp_path / "out"
+    process = run_rpod_in_process(
+        "run", "hold_point", "--no-record", "--out", out,
+        "--set", "navigation=!Ekf {}", "--set", "duration_s=30",
+        cwd=tmp_path,
+    )  # fmt: skip
+    assert process.returncode in (0, 3), process.stderr
+    line = process.stdout.strip().splitlines()[-1]
+    assert "on the EKF's estimate (position RMS" in line and "fixes rejected" in line
+    summary = json.loads((out / "summary.json").read_text())
+    assert list(summary)[:2] == ["scenario", "status"]
+    assert summary["navigation"]["estimator"] == "ekf"
+    assert "navigation.png" in summary["plots"]
+    assert "navigation: !Ekf" in (out / "scenario.yaml").read_text()
+
+
+def test_a_sensor_that_never_sees_the_target_is_one_line(tmp_path):
+    process = run_rpod_in_process(
+        "run", "hold_point", "--no-record", "--out", tmp_path / "out",
+        "--set", "navigation=!Ekf {boresight_C: [0, -1, 0], pose_sensor: {half_fov_deg: 1}}",
+        cwd=tmp_path,
+    )  # fmt: skip
+    assert process.returncode == 2, process.stderr
+    (line,) = process.stderr.strip().splitlines()
+    assert line.startswith("rpod: error: hold_point") and "navigation.lead_in_s" in line
+    assert not (tmp_path / "out").exists()  # nothing left behind
