@@ -14,7 +14,8 @@ reads the sensed bundle and drives one of the actuation paths, which the builder
     truth --relative state, LVLH, attitudes, target orbit--> sensed (Multiplexer)
           --> controller, monitor
     with `navigation: !Ekf`, the controller reads an estimate instead (the monitor, an ideal
-    actuator and the scene still the truth):
+    actuator and the scene still the truth), and is built with the target inertia the
+    navigation estimated by t = 0 (`with_estimated_inertia`):
     truth --> truth_sensed (Multiplexer), chaser_state_I --> navigation --sensed--> controller
     path 1: controller --body wrench--> WrenchAllocator --duty--> PwmModulator --on/off--> truth
     path 2: controller --per-thruster levels--> PwmModulator --on/off--> truth
@@ -38,7 +39,7 @@ from pydrake.systems.primitives import (
 
 from rpod.diagrams import controller_seam
 from rpod.diagrams.controller_seam import Actuation
-from rpod.diagrams.navigation import add_navigation
+from rpod.diagrams.navigation import add_navigation, with_estimated_inertia
 from rpod.diagrams.scenario import (
     Scenario,
     body_polytopes,
@@ -126,13 +127,15 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
     )
     truth_port = bundle.get_output_port()
     navigation = None
+    controller_scenario = scenario  # what the controller is built from
     if estimated:
         navigation = add_navigation(builder, scenario, make_truth(scenario, None, False))
         sensed_port = navigation.GetOutputPort("sensed")
+        controller_scenario = with_estimated_inertia(scenario, navigation)
     else:
         sensed_port = truth_port
     plugin = controller_seam.plugin_for(scenario.controller)
-    wiring = plugin.add_to_diagram(builder, scenario, sensed_port) if plugin else None
+    wiring = plugin.add_to_diagram(builder, controller_scenario, sensed_port) if plugin else None
     actuation = plugin.actuation_for(scenario.controller) if wiring is not None else None
     ideal = actuation is Actuation.IDEAL
     gimbaled = layout is not None and layout.gimbaled and not ideal

@@ -11,10 +11,12 @@ time-reversible, so the samples are the states the run came from, not a second m
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 
+from rpod.models import relative_navigation as rn
 from rpod.models.config import ConfigError
 from rpod.models.gravity import MU_EARTH_M3_S2, R_EARTH_M
 from rpod.systems.navigation import (
@@ -139,3 +141,17 @@ def add_navigation(builder, scenario, coasting_truth) -> RelativeNavigation:
     computer = navigation_computer(config, scenario)
     start = run_lead_in(computer, coasting_truth)
     return builder.AddNamedSystem("navigation", RelativeNavigation(computer, start))
+
+
+def with_estimated_inertia(scenario, navigation: RelativeNavigation):
+    """The scenario as the controller is built from it on an estimate: the target's inertia is
+    the one the navigation estimated by t = 0, its principal axes T's, its ratios the filter's,
+    its magnitude the truth's trace (stated, not estimated: the torque-free tumble a planner
+    predicts depends on the ratios only, and no pose sensor sees the mass). The truth and the
+    verdict keep the scenario's own."""
+    estimate = navigation.start_memory.estimate
+    ratios = rn.ratios_from_parameters(estimate.inertia_parameters)
+    trace = float(np.trace(np.asarray(scenario.target.inertia_kg_m2, dtype=float)))
+    diagonal = trace / (1.0 + ratios[0] + ratios[1]) * np.array([1.0, ratios[0], ratios[1]])
+    target = dataclasses.replace(scenario.target, inertia_kg_m2=np.diag(diagonal).tolist())
+    return dataclasses.replace(scenario, target=target)

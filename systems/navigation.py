@@ -539,6 +539,7 @@ class RelativeNavigation(LeafSystem):
         self._truth_port = self.DeclareVectorInputPort("truth_sensed", SENSED_SIZE)
         self._chaser_port = self.DeclareVectorInputPort("chaser_state_I", 6)
         self._memory = self.DeclareAbstractState(Value[object](start))
+        self.start_memory = start  # what the lead-in left: the estimate at t = 0
         self._first_tick = start.tick + 1
         self.DeclarePeriodicUnrestrictedUpdateEvent(
             computer.period_s, computer.time_of(self._first_tick), self._update

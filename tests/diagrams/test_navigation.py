@@ -220,3 +220,20 @@ def test_a_filter_that_diverges_restarts_from_the_next_fixes():
     assert nav["filter_restarts"] >= 1 and nav["fixes_rejected"] >= 4
     assert nav["errors"]["attitude"]["final"] < 0.5  # deg: back on the truth after the restart
     assert result.summary["mission"]["success"], result.summary["mission"]
+
+
+def test_the_controller_is_built_with_the_inertia_the_navigation_estimated():
+    from rpod.diagrams.navigation import with_estimated_inertia
+    from rpod.models.relative_navigation import ratios_from_parameters
+
+    scenario = dataclasses.replace(_hold_point(10.0), navigation=Ekf())
+    _, handles = build_diagram(scenario)
+    estimate = handles.navigation.start_memory.estimate
+    built = with_estimated_inertia(scenario, handles.navigation)
+    J = np.asarray(built.target.inertia_kg_m2)
+    np.testing.assert_allclose(J, np.diag(np.diag(J)))  # principal axes T's, as the filter's
+    np.testing.assert_allclose(
+        np.diag(J)[1:] / J[0, 0], ratios_from_parameters(estimate.inertia_parameters)
+    )
+    assert np.trace(J) == pytest.approx(np.trace(DIAGONAL))  # the stated magnitude
+    assert scenario.target.inertia_kg_m2 == DIAGONAL  # the truth keeps its own
