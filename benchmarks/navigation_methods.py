@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import multiprocessing
 import pathlib
 import statistics
@@ -150,14 +151,24 @@ def _level_name(level) -> str:
     return "truth" if level == "truth" else f"Ekf x{level:g}"
 
 
-def report(results: list[dict], wall_s: float, jobs: int) -> str:
+def report(results: list[dict], jobs: int, planned: dict) -> str:
+    # A case counts once all four levels have flown (a study cut short leaves some half done).
+    flown_levels: dict = {}
+    for r in results:
+        flown_levels.setdefault((r["method"], r["case"]), set()).add(r["level"])
+    complete = {key for key, levels in flown_levels.items() if len(levels) == len(LEVELS)}
+    results = [r for r in results if (r["method"], r["case"]) in complete]
     methods = list(dict.fromkeys(r["method"] for r in results))
+    coverage = ", ".join(
+        f"{m} {sum(1 for key in complete if key[0] == m)}/{planned[m]}" for m in planned
+    )
     lines = [
         "# Every method on its navigation estimate",
         "",
         (
-            f"Command: `{COMMAND}` ({machine_line()}; {len(results)} runs on {jobs} processes "
-            f"in {wall_s / 60:.1f} min). Levels: truth-fed, then `navigation: !Ekf` with every "
+            f"Command: `{COMMAND}` ({machine_line()}; {len(results)} runs on {jobs} "
+            f"processes). Cases flown at every level, of those planned: {coverage}. "
+            "Levels: truth-fed, then `navigation: !Ekf` with every "
             "sensor's noise times 0, 1 (the defaults: pose 1 cm / 1 % of range and 2 deg at "
             "2 Hz, 0.1 s latency; star tracker 10 arcsec; gyro 0.15 deg/sqrt(h); GNSS 1 m, "
             "1 cm/s) and 3. The cases are in the script's docstring."
@@ -268,33 +279,71 @@ def report(results: list[dict], wall_s: float, jobs: int) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _interleaved(all_cases: list) -> list:
+    """The cases taken one per method in turn (so that a study cut short still covers every
+    method), each method's in its own order."""
+    by_method: dict[str, list] = {}
+    for case in all_cases:
+        by_method.setdefault(case[0], []).append(case)
+    queues = list(by_method.values())
+    out = []
+    while any(queues):
+        for queue in queues:
+            if queue:
+                out.append(queue.pop(0))
+    return out
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--per-method", type=int, default=None, help="a quick subset")
     parser.add_argument("--out", type=pathlib.Path, default=RESULTS)
+    parser.add_argument(
+        "--runs",
+        type=pathlib.Path,
+        default=pathlib.Path("navigation_runs.jsonl"),
+        help="each finished run, one JSON line (resumed from: runs in it are not flown again)",
+    )
+    parser.add_argument(
+        "--report-only", action="store_true", help="write the report from --runs as it is"
+    )
     args = parser.parse_args(argv)
     from rpod.scenarios.loader import dump_scenario
 
+    all_cases = _interleaved(cases(args.per_method))
+    done = {}
+    if args.runs.exists():
+        for line in args.runs.read_text().splitlines():
+            result = json.loads(line)
+            done[(result["method"], result["case"], result["level"])] = result
     jobs = [
         (method, label, dump_scenario(scenario), pose, level)
-        for method, label, scenario, pose in cases(args.per_method)
+        for method, label, scenario, pose in all_cases
         for level in LEVELS
+        if (method, label, level) not in done
     ]
-    start = time.perf_counter()
-    results = []
-    with multiprocessing.get_context("spawn").Pool(args.jobs, maxtasksperchild=20) as pool:
-        for k, result in enumerate(pool.imap_unordered(fly, jobs), 1):
-            results.append(result)
-            state = "error" if "error" in result else ("ok" if result["success"] else "FAIL")
-            print(
-                f"[{k}/{len(jobs)}] {result['method']} {result['case']} "
-                f"{_level_name(result['level'])}: {state}",
-                flush=True,
-            )
-    order = {(m, c): i for i, (m, c, _, _) in enumerate(cases(args.per_method))}
-    results.sort(key=lambda r: (order[(r["method"], r["case"])], LEVELS.index(r["level"])))
-    text = report(results, time.perf_counter() - start, args.jobs)
+    if not args.report_only and jobs:
+        with (
+            multiprocessing.get_context("spawn").Pool(args.jobs, maxtasksperchild=20) as pool,
+            args.runs.open("a") as runs,
+        ):
+            for k, result in enumerate(pool.imap(fly, jobs), 1):
+                done[(result["method"], result["case"], result["level"])] = result
+                runs.write(json.dumps(result) + "\n")
+                runs.flush()
+                state = "error" if "error" in result else ("ok" if result["success"] else "FAIL")
+                print(
+                    f"[{k}/{len(jobs)}] {result['method']} {result['case']} "
+                    f"{_level_name(result['level'])}: {state}",
+                    flush=True,
+                )
+    order = {(m, c): i for i, (m, c, _, _) in enumerate(all_cases)}
+    results = sorted(
+        done.values(), key=lambda r: (order[(r["method"], r["case"])], LEVELS.index(r["level"]))
+    )
+    planned = {m: sum(1 for c in all_cases if c[0] == m) for m, *_ in all_cases}
+    text = report(results, args.jobs, planned)
     args.out.write_text(text)
     print(text)
     return 0
