@@ -30,7 +30,7 @@ from machine import machine_line  # benchmarks/machine.py, beside this script
 from rpod.diagrams.simulate import simulate
 from rpod.models import relative_navigation as rn
 from rpod.scenarios.loader import load_scenario
-from rpod.systems.navigation import Ekf
+from rpod.systems.navigation_config import Ekf
 
 RESULTS = pathlib.Path(__file__).resolve().parent / "results" / "navigation_cost.md"
 COMMAND = "python benchmarks/bench_navigation.py"
@@ -144,21 +144,13 @@ def main(argv=None) -> int:
         "# What navigation costs",
         "",
         f"Command: `{COMMAND} --repeat {args.repeat}` ({machine_line()}).",
-        "",
-        "## The filter's parts (converged 3-D tumble; median of 2,000 calls)",
-        "",
-        "| part | median [us] |",
-        "|---|---|",
     ]
-    lines += [f"| {part} | {us:.0f} |" for part, us in filter_parts()]
-    lines += [
-        "",
-        "## The navigation's tick (inside a hold_point run on `!Ekf`, lead-in included; medians)",
-        "",
-        "| part | median [us] |",
-        "|---|---|",
-    ]
-    lines += [f"| {part} | {us:.0f} |" for part, us in tick_parts()]
+    for heading, parts in (
+        ("The filter's parts (converged 3-D tumble; median of 2,000 calls)", filter_parts()),
+        ("The navigation's tick (inside a hold_point run on `!Ekf`; medians)", tick_parts()),
+    ):
+        lines += ["", f"## {heading}", "", "| part | median [us] |", "|---|---|"]
+        lines += [f"| {part} | {us:.0f} |" for part, us in parts]
     lines += [
         "",
         f"## Share of a run's wall time (best of {args.repeat}, truth-fed and `!Ekf` alternating)",

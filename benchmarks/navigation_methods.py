@@ -39,7 +39,7 @@ SEED = 21
 
 
 def _ekf(level, **pose):
-    from rpod.systems.navigation import Ekf
+    from rpod.systems.navigation_config import Ekf
 
     config = Ekf(noise_scale=level)
     for name, value in pose.items():

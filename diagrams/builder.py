@@ -55,7 +55,8 @@ from rpod.models.orbit import initial_orbit_state, lvlh_of
 from rpod.models.thrusters import ThrusterLayout
 from rpod.systems.allocator import WrenchAllocator
 from rpod.systems.ideal_actuator import IdealActuator
-from rpod.systems.navigation import NAVIGATION_LOG_KEYS, Ekf, RelativeNavigation
+from rpod.systems.navigation import NAVIGATION_LOG_KEYS, RelativeNavigation
+from rpod.systems.navigation_config import Ekf
 from rpod.systems.pwm import PwmModulator
 from rpod.systems.safety_monitor import SafetyMonitor
 from rpod.systems.sensed import SENSED_FIELDS, SENSED_PORT

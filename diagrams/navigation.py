@@ -20,12 +20,12 @@ from rpod.models import relative_navigation as rn
 from rpod.models.config import ConfigError
 from rpod.models.gravity import MU_EARTH_M3_S2, R_EARTH_M
 from rpod.systems.navigation import (
-    Ekf,
     NavigationComputer,
     NavigationMemory,
     RelativeNavigation,
     TruthSample,
 )
+from rpod.systems.navigation_config import Ekf
 from rpod.systems.sensed import SENSED_FIELDS
 
 LEAD_IN_RTOL = 1e-11

@@ -32,7 +32,7 @@ from rpod.models.shapes import (
 )
 from rpod.models.thrusters import ThrusterLayout
 from rpod.planners.pointing import min_rotation
-from rpod.systems import navigation as navigation_choices
+from rpod.systems import navigation_config as navigation_choices
 from rpod.systems.scene import SceneConfig
 
 THRUSTER_LAYOUTS = ("rcs_cube_12", "planar_8", "gimbaled_cuboid_8")

@@ -18,7 +18,7 @@ from rpod.diagrams.simulate import simulate
 from rpod.models.config import ConfigError
 from rpod.scenarios.campaign import apply_overrides
 from rpod.scenarios.loader import dump_scenario, load_scenario, parse_scenario
-from rpod.systems.navigation import Ekf, Truth
+from rpod.systems.navigation_config import Ekf, Truth
 
 DIAGONAL = [[1200.0, 0.0, 0.0], [0.0, 1000.0, 0.0], [0.0, 0.0, 800.0]]
 
