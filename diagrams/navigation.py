@@ -102,25 +102,24 @@ def lead_in_samples(truth, times_s) -> list[TruthSample]:
 
 
 def navigation_computer(config: Ekf, scenario) -> NavigationComputer:
-    """The navigation's computation for the scenario, its ticks starting `lead_in_s` before 0."""
-    ticks = math.ceil(config.lead_in_s / config.update_period_s - 1e-9)
+    """The navigation's computation for the scenario (its lead-in starts about `lead_in_s`
+    before 0: a whole number of sensor cycles)."""
     return NavigationComputer(
         config,
         scenario.seed,
         filter_mean_motion(scenario),
         scenario.orbit.gravity,
         boresight_of(config, scenario),
-        -ticks * config.update_period_s,
     )
 
 
 def run_lead_in(computer: NavigationComputer, coasting_truth) -> NavigationMemory:
     """The navigation after every tick before t = 0; ConfigError when its filter has not
     started by then (the pose sensor saw the target fewer than twice)."""
-    ticks = round(-computer.start_s / computer.period_s)
-    times = [computer.time_of(k) for k in range(ticks)]
+    events = [k for k in range(computer.tick_at(0.0)) if computer.is_event(k)]
+    samples = lead_in_samples(coasting_truth, [computer.time_of(k) for k in events])
     memory = NavigationMemory()
-    for k, sample in enumerate(lead_in_samples(coasting_truth, times)):
+    for k, sample in zip(events, samples):
         memory = computer.tick(memory, k, sample)
     if memory.estimate is None:
         used, _, unseen, _ = memory.counts

@@ -22,9 +22,10 @@ ARCSEC_RAD = np.pi / (180.0 * 3600.0)
 
 @dataclasses.dataclass
 class StarTracker:
-    """Attitude fixes q_IC at rate_hz with sigma_arcsec of noise about each axis."""
+    """Attitude fixes q_IC at rate_hz with sigma_arcsec of noise about each axis (2 Hz: read
+    with the pose sensor, which the navigation's events follow; trackers give 1-10 Hz)."""
 
-    rate_hz: float = positive(5.0, high=100.0)
+    rate_hz: float = positive(2.0, high=100.0)
     sigma_arcsec: float = bounded(10.0, 0.0, 3600.0)
 
     def measure(self, rng: np.random.Generator, q_IC) -> np.ndarray:
@@ -35,15 +36,15 @@ class StarTracker:
 
 @dataclasses.dataclass
 class Gyro:
-    """Body rates w_IC_C + bias + white noise, sampled every period_s.
+    """An integrating rate gyro: read over any interval, it gives the body's mean rate over it
+    plus its bias plus white noise (its angle increment over the interval, divided by it).
 
-    angle_random_walk_deg_rt_h: the white noise's density (deg/sqrt(h)); its 1-sigma on one
-        sample is that density / sqrt(period_s).
+    angle_random_walk_deg_rt_h: the white noise's density (deg/sqrt(h)); its 1-sigma on the
+        mean rate over an interval T is that density / sqrt(T).
     bias_random_walk_deg_h_rt_h: the bias's random walk density (deg/h/sqrt(h)).
     initial_bias_deg_h: the 1-sigma of each axis's bias at the start (deg/h).
     """
 
-    period_s: float = positive(0.1, high=10.0)
     angle_random_walk_deg_rt_h: float = bounded(0.15, 0.0, 100.0)
     bias_random_walk_deg_h_rt_h: float = bounded(0.1, 0.0, 100.0)
     initial_bias_deg_h: float = bounded(1.0, 0.0, 3600.0)
@@ -52,12 +53,16 @@ class Gyro:
         """A bias (3,) rad/s drawn from its starting spread."""
         return np.radians(self.initial_bias_deg_h / 3600.0) * rng.standard_normal(3)
 
-    def measure(self, rng: np.random.Generator, w_IC_C, bias) -> tuple[np.ndarray, np.ndarray]:
-        """(the rate sample (3,) rad/s, the bias after this period (3,) rad/s)."""
+    def measure(
+        self, rng: np.random.Generator, mean_rate_C, bias, interval_s: float
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """(the mean rate read over interval_s (3,) rad/s, the bias after it (3,) rad/s), from
+        the true mean rate over the interval."""
         arw = np.radians(self.angle_random_walk_deg_rt_h) / 60.0  # rad/sqrt(s)
         rrw = np.radians(self.bias_random_walk_deg_h_rt_h) / 3600.0 / 60.0  # rad/s/sqrt(s)
-        sample = np.asarray(w_IC_C) + bias + arw / np.sqrt(self.period_s) * rng.standard_normal(3)
-        return sample, bias + rrw * np.sqrt(self.period_s) * rng.standard_normal(3)
+        white = arw / np.sqrt(interval_s) * rng.standard_normal(3)
+        walk = rrw * np.sqrt(interval_s) * rng.standard_normal(3)
+        return np.asarray(mean_rate_C) + bias + white, bias + walk
 
 
 @dataclasses.dataclass

@@ -43,6 +43,7 @@ from pydrake.systems.framework import LeafSystem
 
 from rpod.models import relative_navigation as rn
 from rpod.models.frames import (
+    attitude_error,
     quaternion_product,
     quaternion_wxyz,
     rotation_from_wxyz,
@@ -51,7 +52,7 @@ from rpod.models.frames import (
 from rpod.models.gravity import gravity_acceleration_xyz
 from rpod.models.orbit import lvlh_of
 from rpod.systems.navigation_config import Ekf, scaled_sensors
-from rpod.systems.sensed import SENSED_SIZE, Sensed, sensed_vector
+from rpod.systems.sensed import SENSED_SIZE, Sensed
 
 ESTIMATE_SIZE = 15
 """The `estimate` port: [p_LC_L, v_LC_L, q_IT, w_IT_T, inertia parameters (p_x, p_y)]."""
@@ -70,6 +71,7 @@ _POSE, _STAR, _GYRO, _GNSS, _BIAS = range(5)
 _TIME_TOLERANCE_S = 1e-9
 _ZERO = (0.0, 0.0, 0.0)
 _ZERO3 = np.zeros(3)
+_OUTPUT_STEP_S = 0.5  # the longest RK4 step of the estimate carried to a read
 # The filter's measurement sigma is never below these (1 mm, 0.06 deg). With noise-free fixes
 # (noise_scale 0) and floors 100 times smaller, the Euler model's error while the inertia is
 # still being learned stood out of the innovation's tiny covariance: the gate refused every fix
@@ -100,10 +102,12 @@ class NavigationMemory:
     chaser_last: np.ndarray | None = None  # chaser_state_I at the last tick (true)
     gyro_bias: np.ndarray | None = None
     q_IC: np.ndarray | None = None  # the chaser's attitude estimate at the last tick
-    w_IC_C: np.ndarray | None = None  # the mean of gyro_samples
-    gyro_samples: tuple = ()  # the last gyro_window_s of gyro samples
+    w_IC_C: np.ndarray | None = None  # the gyro's mean rate over gyro_readings
+    gyro_readings: tuple = ()  # (interval, mean rate) over the last gyro_window_s
+    q_IC_true: np.ndarray | None = None  # the gyro's reference at the last event (its truth)
     target_I: np.ndarray | None = None  # the target's orbit estimate at the last tick
     R_IL: np.ndarray | None = None  # its LVLH frame at the last tick
+    q_IL: np.ndarray | None = None
     w_IL_L: np.ndarray | None = None
     counts: tuple = (0, 0, 0, 0)  # fixes used, rejected, unseen; restarts
     rejected_in_a_row: int = 0
@@ -124,7 +128,13 @@ class NavigationComputer:
         mean_motion_rad_s: the filter's CW mean motion (0 in free space).
         gravity: the truth's gravity model's name (the target orbit's propagation).
         boresight_C: the pose sensor's boresight, unit, in C.
-        start_s: the time of tick 0 (the lead-in's start, <= 0).
+
+    Time runs in ticks of `update_period_s` from the lead-in's start (tick 0, at `start_s`, a
+    whole number of sensor cycles before t = 0, so that every schedule meets t = 0), but the
+    navigation only works at its events: a sensor's sample, or a pose fix's arrival
+    (`is_event`). In between, nothing is due: the output carries the estimate to the instant it
+    is read. Events, not a fixed clock, because every event ends an integrator step: at 10 Hz
+    they made a run of paper 004's MPC take five times its steps.
     """
 
     def __init__(
@@ -134,14 +144,12 @@ class NavigationComputer:
         mean_motion_rad_s: float,
         gravity: str,
         boresight_C,
-        start_s: float,
     ):
         self.config = config
         self.seed = int(seed)
         self.n = float(mean_motion_rad_s)
         self.gravity = gravity
         self.boresight_C = np.asarray(boresight_C, dtype=float)
-        self.start_s = float(start_s)
         self.period_s = config.update_period_s
         self.pose, self.star, self.gyro, self.gnss = scaled_sensors(config)
         self.settings = config.filter_settings()
@@ -149,11 +157,32 @@ class NavigationComputer:
         self.every = {
             name: round(period / self.period_s) for name, period in config.sensor_periods().items()
         }
-        self.gyro_window = max(1, round(config.gyro_window_s / config.gyro.period_s))
         self.latency_ticks = math.ceil(config.pose_sensor.latency_s / self.period_s - 1e-9)
+        cycle = math.lcm(*self.every.values())
+        lead_in_ticks = math.ceil(config.lead_in_s / self.period_s - 1e-9)
+        self.start_s = -math.ceil(lead_in_ticks / cycle) * cycle * self.period_s
 
     def time_of(self, tick: int) -> float:
+        """The time of a tick [s]."""
         return self.start_s + tick * self.period_s
+
+    def tick_at(self, t: float) -> int:
+        """The tick at time t."""
+        return round((t - self.start_s) / self.period_s)
+
+    def is_event(self, tick: int) -> bool:
+        """Whether the navigation works at this tick: a sensor samples or a fix arrives."""
+        pose = self.every["pose_sensor.rate_hz"]
+        return any(tick % every == 0 for every in self.every.values()) or (
+            (tick - self.latency_ticks) % pose == 0
+        )
+
+    def event_schedule(self) -> list[tuple[float, float]]:
+        """The events as (period [s], offset from t = 0 [s]) pairs, each once."""
+        pose = self.every["pose_sensor.rate_hz"]
+        pairs = {(every, 0) for every in self.every.values()}
+        pairs.add((pose, self.latency_ticks % pose))
+        return sorted((every * self.period_s, offset * self.period_s) for every, offset in pairs)
 
     def _rng(self, stream: int, tick: int) -> np.random.Generator:
         return np.random.default_rng((self.seed, stream, tick))
@@ -163,29 +192,40 @@ class NavigationComputer:
 
     # ------------------------------------------------------------------------------- filter
 
-    def _advance(self, state: rn.FilterState, t: float, segments) -> rn.FilterState:
+    def _advance(
+        self, state: rn.FilterState, t: float, segments, with_covariance: bool = True
+    ) -> rn.FilterState:
         """The filter carried to t (a tick) through the thrust of `segments` (whole ticks): the
         nominal tick by tick, unforced, plus each tick's thrust increments; the covariance in
         one prediction (the thrust is a known input: the covariance's growth depends on the
         tumble's nominal only, and one call with steps of max_step_s costs a third of one
-        call per tick)."""
+        call per tick). Without covariance, P is the state's as it was (`covariance_at` carries
+        it when it is read)."""
         if t <= state.t + _TIME_TOLERANCE_S:
             return state
         s = self.settings
-        covariance = rn.predict(state, t, self.n, s.noise, _ZERO, s.max_step_s, s.excitation_sigmas)
+        covariance = None
+        if with_covariance:
+            covariance = rn.predict(
+                state, t, self.n, s.noise, _ZERO, s.max_step_s, s.excitation_sigmas
+            )
         nominal = state
         for t0, t1, increments in segments:
             if t0 >= nominal.t - _TIME_TOLERANCE_S and t1 <= t + _TIME_TOLERANCE_S:
                 nominal = self._carry(nominal, t1, increments)
         if t > nominal.t + _TIME_TOLERANCE_S:
             nominal = rn.propagate_nominal(nominal, t, self.n, _ZERO, s.max_step_s)
-        nominal.P = covariance.P
+        if covariance is not None:
+            nominal.P = covariance.P
         return nominal
 
-    def _carry(self, state: rn.FilterState, t: float, increments) -> rn.FilterState:
+    def _carry(
+        self, state: rn.FilterState, t: float, increments, max_step_s: float | None = None
+    ) -> rn.FilterState:
         """The nominal carried to t unforced, plus the thrust's increments over the interval
-        (the CW coupling of thrust within a 0.1 s tick, n dt ~ 1e-4 of it, is left out)."""
-        out = rn.propagate_nominal(state, t, self.n, _ZERO, self.settings.max_step_s)
+        (the CW coupling of thrust within half a second, n dt ~ 5e-4 of it, is left out)."""
+        step = self.settings.max_step_s if max_step_s is None else max_step_s
+        out = rn.propagate_nominal(state, t, self.n, _ZERO, step)
         dp_L, dv_L = increments
         out.p_LC_L = out.p_LC_L + dp_L
         out.v_LC_L = out.v_LC_L + dv_L
@@ -227,16 +267,20 @@ class NavigationComputer:
     # --------------------------------------------------------------------------------- tick
 
     def tick(self, previous: NavigationMemory, tick: int, truth: TruthSample) -> NavigationMemory:
-        """The navigation after tick `tick` (time `time_of(tick)`), from the one before."""
+        """The navigation after the event at tick `tick` (time `time_of(tick)`), from the one
+        after the event before."""
         t = self.time_of(tick)
-        dt = self.period_s
+        t_last = self.time_of(previous.tick) if previous.tick >= 0 else t
+        dt = t - t_last
         memory = {f.name: getattr(previous, f.name) for f in dataclasses.fields(previous)}
         sensed = Sensed.from_vector(truth.sensed)
 
-        # The chaser's thrust over the last tick, in L: its velocity change beyond gravity.
+        # The chaser's thrust since the last event, in L: its IMU's increments.
         increments = self._thrust_since(previous, truth.chaser_state_I, dt)
         memory["chaser_last"] = np.array(truth.chaser_state_I, dtype=float)
-        segments = tuple(memory["segments"]) + ((t - dt, t, increments),)
+        segments = tuple(memory["segments"])
+        if dt > 0.0:
+            segments += ((t_last, t, increments),)
 
         self._chaser_attitude(memory, previous, tick, sensed, dt)
 
@@ -266,7 +310,9 @@ class NavigationComputer:
             start = memory["filter"].t - _TIME_TOLERANCE_S
             memory["segments"] = tuple(s for s in segments if s[1] > start)
             if arrived or previous.estimate is None:  # from the fix just used
-                memory["estimate"] = self._advance(memory["filter"], t, memory["segments"])
+                memory["estimate"] = self._advance(
+                    memory["filter"], t, memory["segments"], with_covariance=False
+                )
             else:  # no new fix: the last tick's nominal, one tick on (`covariance_at`)
                 memory["estimate"] = self._carry(previous.estimate, t, increments)
         elif previous.estimate is not None:  # restarting: the old estimate carried meanwhile
@@ -278,21 +324,31 @@ class NavigationComputer:
     def _chaser_attitude(
         self, memory, previous: NavigationMemory, tick, sensed: Sensed, dt
     ) -> None:
-        """The last star-tracker fix carried by the gyro (module docstring)."""
+        """The last star-tracker fix carried by the gyro (module docstring): the integrating
+        gyro is read at every event, over the interval since the last (its mean rate is the
+        truth's rotation over the interval, divided by it)."""
         bias = previous.gyro_bias
         if bias is None:
             bias = self.gyro.initial_bias(self._rng(_BIAS, 0))
         q = previous.q_IC
-        if q is not None and previous.w_IC_C is not None:
-            q = quaternion_product(q, rotation_vector_quaternion(previous.w_IC_C * dt))
-        if self._due("gyro.period_s", tick):
-            w, bias = self.gyro.measure(self._rng(_GYRO, tick), sensed.w_IC_C, bias)
-            samples = (*previous.gyro_samples, w)[-self.gyro_window :]
-            memory["gyro_samples"] = samples
-            memory["w_IC_C"] = np.mean(samples, axis=0)
+        if previous.q_IC_true is not None and dt > 0.0:
+            true_mean = attitude_error(previous.q_IC_true, sensed.q_IC) / dt
+            w, bias = self.gyro.measure(self._rng(_GYRO, tick), true_mean, bias, dt)
+            if q is not None:
+                q = quaternion_product(q, rotation_vector_quaternion(w * dt))
+            readings = [*previous.gyro_readings, (dt, w)]
+            while (
+                len(readings) > 1 and sum(r[0] for r in readings[1:]) >= self.config.gyro_window_s
+            ):
+                readings.pop(0)  # the window: the last gyro_window_s of readings
+            memory["gyro_readings"] = tuple(readings)
+            memory["w_IC_C"] = sum(r[0] * r[1] for r in readings) / sum(r[0] for r in readings)
+        memory["q_IC_true"] = np.array(sensed.q_IC)  # the gyro's own reference, not an estimate
         if self._due("star_tracker.rate_hz", tick) or q is None:
             q = self.star.measure(self._rng(_STAR, tick), sensed.q_IC)
         memory["gyro_bias"], memory["q_IC"] = bias, q
+        if memory["w_IC_C"] is None:  # no reading yet: at rest, as far as it knows
+            memory["w_IC_C"] = np.zeros(3)
 
     def _target_orbit(
         self, memory, previous: NavigationMemory, tick, truth: TruthSample, dt
@@ -317,6 +373,7 @@ class NavigationComputer:
         memory["target_I"] = target
         if target is not None:
             memory["R_IL"], memory["w_IL_L"] = lvlh_of(target[:3], target[3:], self.gravity)
+            memory["q_IL"] = quaternion_wxyz(memory["R_IL"])
 
     # ------------------------------------------------------------------------------- output
 
@@ -362,29 +419,25 @@ class NavigationComputer:
         if memory.estimate is None or memory.target_I is None:
             return np.full(SENSED_SIZE, np.nan)
         dt = t - memory.estimate.t
-        if dt > 0.0:
+        state, target, q_IL, q_IC = memory.estimate, memory.target_I, memory.q_IL, memory.q_IC
+        if dt > 0.0:  # read between events: at most half a second on
             increments = self._thrust_since(memory, np.asarray(chaser_state_I), dt)
-            state = self._carry(memory.estimate, t, increments)
-            target = _gravity_step(memory.target_I, dt, self.gravity)
-            R_IL, w_IL_L = lvlh_of(target[:3], target[3:], self.gravity)
-        else:
-            state, target = memory.estimate, memory.target_I
-            R_IL, w_IL_L = memory.R_IL, memory.w_IL_L
-        q_IC = quaternion_product(memory.q_IC, rotation_vector_quaternion(memory.w_IC_C * dt))
-        return sensed_vector(
-            np.concatenate([state.p_LC_L, state.v_LC_L]),
-            quaternion_wxyz(R_IL),
-            w_IL_L,
-            np.concatenate([state.q_IT, state.w_IT_T]),
-            np.concatenate([q_IC, memory.w_IC_C]),
-            target,
-        )
+            # One RK4 step: its error over 0.5 s at 10 deg/s of tumble is ~1e-6 rad.
+            state = self._carry(state, t, increments, max_step_s=_OUTPUT_STEP_S)
+            target = _gravity_step(target, dt, self.gravity)
+            q_IL = quaternion_product(q_IL, rotation_vector_quaternion(memory.w_IL_L * dt))
+            q_IC = quaternion_product(q_IC, rotation_vector_quaternion(memory.w_IC_C * dt))
+        out = np.empty(SENSED_SIZE)  # rpod.systems.sensed's layout, filled in place
+        out[0:3], out[3:6], out[6:10], out[10:13] = state.p_LC_L, state.v_LC_L, q_IL, memory.w_IL_L
+        out[13:17], out[17:20] = state.q_IT, state.w_IT_T
+        out[20:24], out[24:27], out[27:33] = q_IC, memory.w_IC_C, target
+        return out
 
 
 def _gravity_step(state_I: np.ndarray, dt: float, gravity: str) -> np.ndarray:
-    """A free orbit under the gravity model carried by dt (at most a tick: 0.1 s), to second
-    order: p + v dt + g dt^2 / 2, v + g dt with g at the middle of the step (error ~1e-5 m
-    and ~1e-6 m/s in low orbit, far below a GNSS fix's)."""
+    """A free orbit under the gravity model carried by dt (at most the half second between two
+    events), to second order: p + v dt + g dt^2 / 2, v + g dt with g at the middle of the step
+    (error ~5e-5 m and ~1e-7 m/s over 0.5 s in low orbit, far below a GNSS fix's)."""
     p, v = state_I[:3], state_I[3:]
     middle = p + 0.5 * dt * v
     g = np.array(gravity_acceleration_xyz(*middle.tolist(), gravity))
@@ -417,10 +470,11 @@ class RelativeNavigation(LeafSystem):
         self._chaser_port = self.DeclareVectorInputPort("chaser_state_I", 6)
         self._memory = self.DeclareAbstractState(Value[object](start))
         self.start_memory = start  # what the lead-in left: the estimate at t = 0
-        self._first_tick = start.tick + 1
-        self.DeclarePeriodicUnrestrictedUpdateEvent(
-            computer.period_s, computer.time_of(self._first_tick), self._update
-        )
+        # One event per schedule; where two meet, both calls compute the same memory (from the
+        # same context), and the second takes the first's from `_done`.
+        for period_s, offset_s in computer.event_schedule():
+            self.DeclarePeriodicUnrestrictedUpdateEvent(period_s, offset_s, self._update)
+        self._done = (None, None, None)  # (memory, tick, its successor)
         state = {self.abstract_state_ticket(self._memory)}
         self.DeclareVectorOutputPort(
             "sensed",
@@ -445,14 +499,16 @@ class RelativeNavigation(LeafSystem):
 
     def _update(self, context, state) -> None:
         memory = self._memory_of(context)
-        t = context.get_time()
-        tick = round((t - self._computer.start_s) / self._computer.period_s)
-        truth = TruthSample(
-            np.array(self._truth_port.Eval(context)), np.array(self._chaser_port.Eval(context))
-        )
-        state.get_mutable_abstract_state(self._memory).set_value(
-            self._computer.tick(memory, tick, truth)
-        )
+        tick = self._computer.tick_at(context.get_time())
+        done_memory, done_tick, after = self._done
+        if done_memory is not memory or done_tick != tick:
+            truth = TruthSample(
+                np.array(self._truth_port.Eval(context)),
+                np.array(self._chaser_port.Eval(context)),
+            )
+            after = self._computer.tick(memory, tick, truth)
+            self._done = (memory, tick, after)
+        state.get_mutable_abstract_state(self._memory).set_value(after)
 
     def _calc_sensed(self, context, output) -> None:
         output.SetFromVector(

@@ -27,16 +27,18 @@ class Truth:
 class Ekf:
     """Controllers read an estimate: the sensors below and the relative-navigation filter.
 
-    update_period_s: the filter's tick; every sensor's period is a whole number of ticks.
+    update_period_s: the navigation's time grid: every sensor's period is a whole number of
+        it, and a fix's latency is rounded up to it. The navigation works only at its events
+        (a sample, a fix's arrival: rpod.systems.navigation), not at every tick.
     lead_in_s: how long the sensors and the filter run before t = 0 (module docstring).
     noise_scale: every sensor's noise times this (0: perfect fixes; 3: three times the
         defaults). Outliers and dropouts keep their own probabilities.
     boresight_C: the pose sensor's boresight in C; empty: the capture axis
         (chaser.capture_point_C's direction).
-    gyro_window_s: the chaser's rate is the mean of the gyro's samples over this window (an
-        integrating gyro's angle increments over 1 s: 0.0025 deg/s of noise at the default
-        angle random walk, against 0.008 deg/s for one 0.1 s sample; the paper 001 NMPC
-        missed its 1 deg grasp tolerance on raw samples).
+    gyro_window_s: the chaser's rate is the integrating gyro's mean over this window (its
+        angle increments over 1 s: 0.0025 deg/s of noise at the default angle random walk,
+        against 0.008 deg/s over 0.1 s; the paper 001 NMPC missed its 1 deg grasp tolerance
+        on 0.1 s readings).
     pose_sensor, star_tracker, gyro, gnss: the sensors (their own docstrings give defaults
         and sources).
     acceleration_noise, torque_noise, inertia_noise: the filter's process noise densities
@@ -94,7 +96,6 @@ class Ekf:
         return {
             "pose_sensor.rate_hz": 1.0 / self.pose_sensor.rate_hz,
             "star_tracker.rate_hz": 1.0 / self.star_tracker.rate_hz,
-            "gyro.period_s": self.gyro.period_s,
             "gnss.rate_hz": 1.0 / self.gnss.rate_hz,
         }
 

@@ -3,6 +3,7 @@ gyro's white noise (from the Allan variance's slope at short averaging) and bias
 (the spread of the bias over many independent gyros), the GNSS fix's sigmas."""
 
 import numpy as np
+import pytest
 
 from rpod.models.chaser_sensors import ARCSEC_RAD, Gnss, Gyro, StarTracker
 from rpod.models.frames import attitude_error
@@ -22,24 +23,25 @@ def test_the_star_tracker_has_its_sigma():
     assert mean_square_is_one(angles / (tracker.sigma_arcsec * ARCSEC_RAD))
 
 
-def test_the_gyro_has_its_white_noise_and_its_bias_walk():
+@pytest.mark.parametrize("interval_s", [0.1, 0.4])
+def test_the_gyro_has_its_white_noise_and_its_bias_walk(interval_s):
     gyro, rng = Gyro(), np.random.default_rng(1)
     w = np.array([0.01, -0.02, 0.003])
     bias = np.zeros(3)
     samples = []
     for _ in range(5000):
-        sample, bias_next = gyro.measure(rng, w, bias)
+        sample, bias_next = gyro.measure(rng, w, bias, interval_s)
         samples.append(sample - w - bias)  # the white part alone
         bias = bias_next
     arw = np.radians(gyro.angle_random_walk_deg_rt_h) / 60.0
-    assert mean_square_is_one(np.array(samples) / (arw / np.sqrt(gyro.period_s)))
+    assert mean_square_is_one(np.array(samples) / (arw / np.sqrt(interval_s)))
     # 300 gyros for 100 s through the model: the bias spreads as the random walk's sqrt(t).
     rrw = np.radians(gyro.bias_random_walk_deg_h_rt_h) / 3600.0 / 60.0
     biases = []
     for _ in range(300):
         bias = np.zeros(3)
-        for _ in range(round(100.0 / gyro.period_s)):
-            _, bias = gyro.measure(rng, w, bias)
+        for _ in range(round(100.0 / interval_s)):
+            _, bias = gyro.measure(rng, w, bias, interval_s)
         biases.append(bias)
     assert mean_square_is_one(np.array(biases) / (rrw * np.sqrt(100.0)))
 
