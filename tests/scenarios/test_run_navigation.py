@@ -34,3 +34,23 @@ def test_a_sensor_that_never_sees_the_target_is_one_line(tmp_path):
     (line,) = process.stderr.strip().splitlines()
     assert line.startswith("rpod: error: hold_point") and "navigation.lead_in_s" in line
     assert not (tmp_path / "out").exists()  # nothing left behind
+
+
+def test_a_campaign_reaches_into_the_navigation_block_and_the_seed(tmp_path):
+    from rpod.scenarios.campaign import apply_overrides, load_campaign, plan_runs
+
+    campaign = tmp_path / "nav.yaml"
+    campaign.write_text(
+        "base: hold_point\n"
+        "overrides:\n"
+        "  navigation: !Ekf {lead_in_s: 10.0}\n"
+        "grid:\n"
+        "  navigation.noise_scale: [0.0, 3.0]\n"
+        "  seed: [0, 1]\n"
+    )
+    loaded = load_campaign(str(campaign))
+    flown = [apply_overrides(loaded.base, run.overrides) for run in plan_runs(loaded)]
+    assert [(s.navigation.noise_scale, s.seed) for s in flown] == [
+        (0.0, 0), (0.0, 1), (3.0, 0), (3.0, 1)
+    ]  # fmt: skip
+    assert all(s.navigation.lead_in_s == 10.0 for s in flown)
