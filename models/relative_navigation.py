@@ -2,7 +2,8 @@
 
 The filter GNC engineers know from Aghili's work on free-floating space objects (F. Aghili and
 K. Parsa, "Motion and parameter estimation of space objects using laser-vision data", JGCD 32(2),
-2009): the relative translation in LVLH with a Clohessy-Wiltshire process model, the target's
+2009): the relative translation in LVLH with a Clohessy-Wiltshire process model or the exact
+relative motion under two-body (+ J2) gravity (rpod.models.relative_orbit), the target's
 attitude as a small error rotation about a reference quaternion (the multiplicative EKF,
 Markley & Crassidis, "Fundamentals of Spacecraft Attitude Determination and Control", 2014,
 Sec. 6.2), its body rate, and the two inertia parameters on which the torque-free Euler
@@ -35,6 +36,7 @@ from rpod.models.frames import (
     rotation_vector_quaternion,
     skew,
 )
+from rpod.models.relative_orbit import TargetOrbit, relative_acceleration_L, relative_jacobian_L
 from rpod.models.rigid_body import quaternion_rate
 
 ERROR_SIZE = 14
@@ -141,23 +143,29 @@ class FilterState:
         )
 
 
-def _rates(n, x: np.ndarray, a_L: np.ndarray) -> np.ndarray:
-    """d/dt of the nominal [p, v, q, w, k] (15): CW translation with the known acceleration
-    a_L, quaternion kinematics, torque-free Euler, constant inertia parameters."""
+def _rates(motion, x: np.ndarray, a_L: np.ndarray) -> np.ndarray:
+    """d/dt of the nominal [p, v, q, w, k] (15): the translation (CW with mean motion `motion`,
+    or the exact relative motion about a TargetOrbit) with the known acceleration a_L,
+    quaternion kinematics, torque-free Euler, constant inertia parameters."""
     # On Python floats: the same equations as cw_acceleration, quaternion_rate and euler_rate
     # (tests/models/test_relative_navigation.py checks them against each other), ~4x cheaper
     # than numpy on 3-vectors, and this runs 4 times a step.
     px, _, pz, vx, vy, vz, qw, qx, qy, qz, wx, wy, wz, kx, ky = x.tolist()
     ax, ay, az = a_L[0], a_L[1], a_L[2]
+    if isinstance(motion, TargetOrbit):
+        gx, gy, gz = relative_acceleration_L(motion, x[0:3], x[3:6]).tolist()
+    else:
+        n = motion
+        gx, gy, gz = 3.0 * n * n * px + 2.0 * n * vy, -2.0 * n * vx, -n * n * pz
     kz = -(kx + ky) / (1.0 + kx * ky)
     return np.array(
         [
             vx,
             vy,
             vz,
-            3.0 * n * n * px + 2.0 * n * vy + ax,
-            -2.0 * n * vx + ay,
-            -n * n * pz + az,
+            gx + ax,
+            gy + ay,
+            gz + az,
             0.5 * (-qx * wx - qy * wy - qz * wz),
             0.5 * (qw * wx + qy * wz - qz * wy),
             0.5 * (qw * wy + qz * wx - qx * wz),
@@ -192,9 +200,14 @@ def _translation_dynamics(n: float) -> np.ndarray:
     return F
 
 
-def _error_dynamics(n, w_T, k) -> np.ndarray:
-    """F (14, 14) of the error state's linear dynamics about the nominal."""
-    F = _translation_dynamics(float(n)).copy()
+def _error_dynamics(motion, w_T, k, p_L=None) -> np.ndarray:
+    """F (14, 14) of the error state's linear dynamics about the nominal (p_L: the relative
+    position, which the exact relative motion's Jacobian needs)."""
+    if isinstance(motion, TargetOrbit):
+        F = np.zeros((ERROR_SIZE, ERROR_SIZE))
+        F[0:6, 0:6] = relative_jacobian_L(motion, p_L)
+    else:
+        F = _translation_dynamics(float(motion)).copy()
     F[THETA_SLICE, THETA_SLICE] = -skew(w_T)  # dtheta_dot = -w x dtheta + dw (body error)
     F[THETA_SLICE, W_SLICE] = np.eye(3)
     A_w, B_k = euler_jacobians(w_T, k)
@@ -245,7 +258,7 @@ def excited_parameters(w_T, P, sigmas: float) -> np.ndarray:
 def predict(
     state: FilterState,
     t: float,
-    n: float,
+    motion,
     noise: ProcessNoise,
     a_L=(0.0, 0.0, 0.0),
     max_step_s: float = 0.25,
@@ -253,7 +266,9 @@ def predict(
 ) -> FilterState:
     """The state and covariance carried to time t: RK4 on the nominal, and the covariance by
     the error dynamics' transition over each step (second order) with the noise of
-    Van Loan's first-order approximation Phi Q Phi^T dt. a_L is the chaser's known
+    Van Loan's first-order approximation Phi Q Phi^T dt. `motion` is the translation's model:
+    a mean motion n [rad/s] (CW; 0 in free space) or a TargetOrbit (the exact relative motion
+    under the truth's gravity, rpod.models.relative_orbit). a_L is the chaser's known
     acceleration in L (its commanded thrust); inertia parameters that `excited_parameters`
     (with excitation_sigmas) says the motion does not reveal enter as rate noise."""
     out = state.copy()
@@ -265,7 +280,7 @@ def predict(
     x = nominal_vector(out)
     P = out.P
     for _ in range(steps):
-        F = _error_dynamics(n, x[10:13], x[13:15])
+        F = _error_dynamics(motion, x[10:13], x[13:15], x[0:3])
         Q = Qc
         quiet = ~excited_parameters(x[10:13], P, excitation_sigmas)
         if quiet.any():  # their Euler terms as white noise on the rate, not as information
@@ -279,7 +294,7 @@ def predict(
         Fdt = F * dt
         Phi = _IDENTITY + Fdt + 0.5 * Fdt @ Fdt
         P = Phi @ (P + Q * dt) @ Phi.T  # Phi P Phi^T + Phi Q Phi^T dt
-        x = _rk4_step(n, x, a_L, dt)
+        x = _rk4_step(motion, x, a_L, dt)
     _set_nominal(out, t, x)
     out.P = 0.5 * (P + P.T)
     return out
@@ -298,18 +313,18 @@ def _set_nominal(state: FilterState, t: float, x: np.ndarray) -> None:
     state.w_IT_T, state.inertia_parameters = x[10:13], x[13:15]
 
 
-def _rk4_step(n, x: np.ndarray, a_L, dt: float) -> np.ndarray:
-    k1 = _rates(n, x, a_L)
-    k2 = _rates(n, x + 0.5 * dt * k1, a_L)
-    k3 = _rates(n, x + 0.5 * dt * k2, a_L)
-    k4 = _rates(n, x + dt * k3, a_L)
+def _rk4_step(motion, x: np.ndarray, a_L, dt: float) -> np.ndarray:
+    k1 = _rates(motion, x, a_L)
+    k2 = _rates(motion, x + 0.5 * dt * k1, a_L)
+    k3 = _rates(motion, x + 0.5 * dt * k2, a_L)
+    k4 = _rates(motion, x + dt * k3, a_L)
     x = x + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
     x[6:10] /= np.linalg.norm(x[6:10])
     return x
 
 
 def propagate_nominal(
-    state: FilterState, t: float, n: float, a_L=(0.0, 0.0, 0.0), max_step_s: float = 0.25
+    state: FilterState, t: float, motion, a_L=(0.0, 0.0, 0.0), max_step_s: float = 0.25
 ) -> FilterState:
     """The nominal state carried to t (covariance unchanged): what the estimate says at an
     instant between two of the filter's steps, at the cost of a few RK4 steps."""
@@ -319,7 +334,7 @@ def propagate_nominal(
     steps = max(1, int(np.ceil((t - state.t) / max_step_s - 1e-9)))
     x = nominal_vector(state)
     for _ in range(steps):
-        x = _rk4_step(n, x, a_L, (t - state.t) / steps)
+        x = _rk4_step(motion, x, a_L, (t - state.t) / steps)
     _set_nominal(out, t, x)
     return out
 
@@ -396,6 +411,61 @@ def chi_square_quantile(probability: float, dof: int) -> float:
     from scipy.special import gammaincinv  # at use
 
     return 2.0 * float(gammaincinv(0.5 * dof, probability))
+
+
+def reset_diverged(
+    state: FilterState,
+    fix: PoseMeasurement,
+    fix_period_s: float,
+    prior: "InertiaPrior",
+    probability: float,
+) -> tuple[FilterState, tuple[str, ...]]:
+    """The filter after it has refused fix after fix: the part whose innovation is out of its
+    own bounds starts again from the fix, the rest keeps what it knew. (the state, the parts
+    reset: 'translation', 'rotation').
+
+    Divergence is nearly always one part's: the tumble's model (principal axes not the
+    filter's, an inertia learned wrong) while the translation is fine, or a manoeuvre it was
+    not told of while the tumble is fine. Starting everything again from two fixes would throw
+    the good part away, and a velocity from two fixes at long range (1 % of 800 m, 0.5 s
+    apart) is metres per second off. A part is reset when its 3-dof NIS passes the
+    chi-square quantile at `probability` (the rotation when neither does alone): its pose
+    from the fix, its rate kept with the uncertainty two fixes would give, the inertia kept
+    with at least the prior's sigma, its cross-covariances zeroed."""
+    gate3 = chi_square_quantile(probability, 3)
+    innovation = np.concatenate([fix.p_LC_L - state.p_LC_L, attitude_error(state.q_IT, fix.q_IT)])
+    P = state.P
+    R_p, R_a = fix.sigma_position_m**2, fix.sigma_attitude_rad**2
+    nis_p = innovation[:3] @ np.linalg.solve(P[P_SLICE, P_SLICE] + R_p * np.eye(3), innovation[:3])
+    S_a = P[THETA_SLICE, THETA_SLICE] + R_a * np.eye(3)
+    nis_a = innovation[3:] @ np.linalg.solve(S_a, innovation[3:])
+    reset_translation = nis_p > gate3
+    reset_rotation = nis_a > gate3 or not reset_translation
+    out = state.copy()
+    P = P.copy()
+
+    def restart(block_a, block_b, variance_a, variance_b):
+        for block in (block_a, block_b):
+            P[block, :] = 0.0
+            P[:, block] = 0.0
+        P[block_a, block_a] = variance_a * np.eye(3)
+        P[block_b, block_b] = variance_b * np.eye(3)
+
+    parts = []
+    if reset_translation:
+        out.p_LC_L = np.array(fix.p_LC_L, dtype=float)
+        restart(P_SLICE, V_SLICE, R_p, 2.0 * R_p / fix_period_s**2)
+        parts.append("translation")
+    if reset_rotation:
+        out.q_IT = np.array(fix.q_IT, dtype=float)
+        restart(THETA_SLICE, W_SLICE, R_a, 2.0 * R_a / fix_period_s**2)
+        sigma_k = max(prior.sigma, *np.sqrt(np.diag(state.P)[K_SLICE]))
+        P[K_SLICE, :] = 0.0
+        P[:, K_SLICE] = 0.0
+        P[K_SLICE, K_SLICE] = sigma_k**2 * np.eye(2)
+        parts.append("rotation")
+    out.P = P
+    return out, tuple(parts)
 
 
 # ------------------------------------------------------------------------------- initialisation

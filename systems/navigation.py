@@ -14,7 +14,8 @@ What the estimate is made of, every `update_period_s` (one tick):
   `latency_s` later (at the first tick after), and the filter is updated at the fix's own time,
   then carried to now. The chaser's thrust enters its process model as a known input, the
   position and velocity increments an IMU's accelerometer gives over each tick
-  (`_thrust_since`); four fixes refused in a row restart the filter from the next two;
+  (`_thrust_since`); four fixes refused in a row reset the part of the filter that diverged
+  (rpod.models.relative_navigation.reset_diverged);
 - the chaser's attitude: the last star-tracker fix carried by the gyro's rates (bias not
   estimated: 1 deg/h over the 0.2 s between fixes is 0.2 arcsec, below the tracker's 10); its
   rate: the gyro's mean over `gyro_window_s`;
@@ -51,6 +52,7 @@ from rpod.models.frames import (
 )
 from rpod.models.gravity import gravity_acceleration_xyz
 from rpod.models.orbit import lvlh_of
+from rpod.models.relative_orbit import TargetOrbit
 from rpod.systems.navigation_config import Ekf, scaled_sensors
 from rpod.systems.sensed import SENSED_SIZE, Sensed
 
@@ -111,7 +113,6 @@ class NavigationMemory:
     w_IL_L: np.ndarray | None = None
     counts: tuple = (0, 0, 0, 0)  # fixes used, rejected, unseen; restarts
     rejected_in_a_row: int = 0
-    prior: rn.InertiaPrior | None = None  # a restart's (None: the settings')
     last_nis: float = math.nan
 
     def __deepcopy__(self, memo):
@@ -161,6 +162,7 @@ class NavigationComputer:
         cycle = math.lcm(*self.every.values())
         lead_in_ticks = math.ceil(config.lead_in_s / self.period_s - 1e-9)
         self.start_s = -math.ceil(lead_in_ticks / cycle) * cycle * self.period_s
+        self._orbit = (None, None)  # (the target orbit estimate, its TargetOrbit)
 
     def time_of(self, tick: int) -> float:
         """The time of a tick [s]."""
@@ -192,8 +194,25 @@ class NavigationComputer:
 
     # ------------------------------------------------------------------------------- filter
 
+    def motion(self, target_I) -> float | TargetOrbit:
+        """The filter's translation model (rpod.models.relative_navigation.predict): CW's mean
+        motion, or with process_model 'exact' the relative motion about the target orbit
+        estimate target_I (CW until there is one)."""
+        if self.config.process_model == "cw" or target_I is None:
+            return self.n
+        key, orbit = self._orbit
+        if key is not target_I:  # one TargetOrbit per estimate of the target's orbit
+            orbit = TargetOrbit(target_I[:3], target_I[3:], self.gravity)
+            self._orbit = (target_I, orbit)
+        return orbit
+
     def _advance(
-        self, state: rn.FilterState, t: float, segments, with_covariance: bool = True
+        self,
+        state: rn.FilterState,
+        t: float,
+        segments,
+        motion,
+        with_covariance: bool = True,
     ) -> rn.FilterState:
         """The filter carried to t (a tick) through the thrust of `segments` (whole ticks): the
         nominal tick by tick, unforced, plus each tick's thrust increments; the covariance in
@@ -207,25 +226,30 @@ class NavigationComputer:
         covariance = None
         if with_covariance:
             covariance = rn.predict(
-                state, t, self.n, s.noise, _ZERO, s.max_step_s, s.excitation_sigmas
+                state, t, motion, s.noise, _ZERO, s.max_step_s, s.excitation_sigmas
             )
         nominal = state
         for t0, t1, increments in segments:
             if t0 >= nominal.t - _TIME_TOLERANCE_S and t1 <= t + _TIME_TOLERANCE_S:
-                nominal = self._carry(nominal, t1, increments)
+                nominal = self._carry(nominal, t1, increments, motion)
         if t > nominal.t + _TIME_TOLERANCE_S:
-            nominal = rn.propagate_nominal(nominal, t, self.n, _ZERO, s.max_step_s)
+            nominal = rn.propagate_nominal(nominal, t, motion, _ZERO, s.max_step_s)
         if covariance is not None:
             nominal.P = covariance.P
         return nominal
 
     def _carry(
-        self, state: rn.FilterState, t: float, increments, max_step_s: float | None = None
+        self,
+        state: rn.FilterState,
+        t: float,
+        increments,
+        motion,
+        max_step_s: float | None = None,
     ) -> rn.FilterState:
         """The nominal carried to t unforced, plus the thrust's increments over the interval
-        (the CW coupling of thrust within half a second, n dt ~ 5e-4 of it, is left out)."""
+        (the orbital coupling of thrust within half a second, n dt ~ 5e-4 of it, is left out)."""
         step = self.settings.max_step_s if max_step_s is None else max_step_s
-        out = rn.propagate_nominal(state, t, self.n, _ZERO, step)
+        out = rn.propagate_nominal(state, t, motion, _ZERO, step)
         dp_L, dv_L = increments
         out.p_LC_L = out.p_LC_L + dp_L
         out.v_LC_L = out.v_LC_L + dv_L
@@ -238,23 +262,25 @@ class NavigationComputer:
             if memory["first_fix"] is None:
                 memory["first_fix"] = fix
             else:
-                prior = memory["prior"] or self.settings.prior
-                memory["filter"] = rn.initial_state(memory["first_fix"], fix, prior)
+                memory["filter"] = rn.initial_state(memory["first_fix"], fix, self.settings.prior)
             memory["counts"] = (used + 1, rejected, unseen, restarts)
             return
-        state = self._advance(memory["filter"], fix.t, memory["segments"])
+        motion = self.motion(memory["target_I"])
+        state = self._advance(memory["filter"], fix.t, memory["segments"], motion)
         result = rn.update(state, fix, self.gate, self.settings.excitation_sigmas)
         memory["filter"] = result.state
         memory["last_nis"] = result.nis
         in_a_row = 0 if result.accepted else memory["rejected_in_a_row"] + 1
         if in_a_row >= self.config.restart_after_rejections:
             # Not outliers: the filter has diverged (its model is wrong, or a manoeuvre it was
-            # not told of). Start again from this fix and the next, keeping what it learned of
-            # the inertia (its sigma at least the prior's: the learning may be what went wrong).
-            k = state.inertia_parameters
-            sigma = max(self.settings.prior.sigma, *np.sqrt(np.diag(state.P)[rn.K_SLICE]))
-            memory["prior"] = rn.InertiaPrior((float(k[0]), float(k[1])), float(sigma))
-            memory["filter"], memory["first_fix"], in_a_row = None, fix, 0
+            # not told of). The part that diverged starts again from this fix, which it then
+            # takes (rpod.models.relative_navigation.reset_diverged).
+            period = 1.0 / self.pose.rate_hz
+            reset, _ = rn.reset_diverged(
+                state, fix, period, self.settings.prior, self.settings.gate_probability
+            )
+            result = rn.update(reset, fix, math.inf, self.settings.excitation_sigmas)
+            memory["filter"], in_a_row = result.state, 0
             restarts += 1
         memory["rejected_in_a_row"] = in_a_row
         memory["counts"] = (
@@ -306,17 +332,16 @@ class NavigationComputer:
         for fix in arrived:
             self._use(memory, fix)
 
+        motion = self.motion(previous.target_I)
         if memory["filter"] is not None:
             start = memory["filter"].t - _TIME_TOLERANCE_S
             memory["segments"] = tuple(s for s in segments if s[1] > start)
             if arrived or previous.estimate is None:  # from the fix just used
                 memory["estimate"] = self._advance(
-                    memory["filter"], t, memory["segments"], with_covariance=False
+                    memory["filter"], t, memory["segments"], motion, with_covariance=False
                 )
             else:  # no new fix: the last tick's nominal, one tick on (`covariance_at`)
-                memory["estimate"] = self._carry(previous.estimate, t, increments)
-        elif previous.estimate is not None:  # restarting: the old estimate carried meanwhile
-            memory["estimate"] = self._carry(previous.estimate, t, increments)
+                memory["estimate"] = self._carry(previous.estimate, t, increments, motion)
         self._target_orbit(memory, previous, tick, truth, dt)
         memory["tick"] = tick
         return NavigationMemory(**memory)
@@ -383,13 +408,17 @@ class NavigationComputer:
         estimate, state = memory.estimate, memory.filter
         if estimate is None:
             return np.full((rn.ERROR_SIZE, rn.ERROR_SIZE), np.nan)
-        if state is None:  # restarting: the old filter's, as it stood
-            return estimate.P
         if estimate.t <= state.t + _TIME_TOLERANCE_S:
             return state.P
         s = self.settings
         return rn.predict(
-            state, estimate.t, self.n, s.noise, _ZERO, s.max_step_s, s.excitation_sigmas
+            state,
+            estimate.t,
+            self.motion(memory.target_I),
+            s.noise,
+            _ZERO,
+            s.max_step_s,
+            s.excitation_sigmas,
         ).P
 
     def _thrust_since(self, memory: NavigationMemory, chaser_state_I, dt: float):
@@ -423,7 +452,8 @@ class NavigationComputer:
         if dt > 0.0:  # read between events: at most half a second on
             increments = self._thrust_since(memory, np.asarray(chaser_state_I), dt)
             # One RK4 step: its error over 0.5 s at 10 deg/s of tumble is ~1e-6 rad.
-            state = self._carry(state, t, increments, max_step_s=_OUTPUT_STEP_S)
+            motion = self.motion(memory.target_I)
+            state = self._carry(state, t, increments, motion, max_step_s=_OUTPUT_STEP_S)
             target = _gravity_step(target, dt, self.gravity)
             q_IL = quaternion_product(q_IL, rotation_vector_quaternion(memory.w_IL_L * dt))
             q_IC = quaternion_product(q_IC, rotation_vector_quaternion(memory.w_IC_C * dt))

@@ -9,6 +9,7 @@ mathematics (rpod.models.pose_sensor, .chaser_sensors, .relative_navigation).
 from __future__ import annotations
 
 import dataclasses
+import typing
 
 import numpy as np
 
@@ -51,8 +52,13 @@ class Ekf:
     prior_inertia_parameters, prior_inertia_sigma: what the filter assumes of the target's
         inertia parameters (p_x, p_y) before it sees the tumble (InertiaPrior).
     gate_probability, excitation_sigmas, max_step_s: the filter's tuning (FilterSettings).
+    process_model: the relative translation's model: 'cw' (Clohessy-Wiltshire, paper 004
+        eq. 4) or 'exact' (the relative motion under the scenario's two-body or two-body + J2
+        gravity about the target orbit estimate, rpod.models.relative_orbit), for long
+        ranges and eccentric orbits where CW's error shows.
     restart_after_rejections: this many fixes refused in a row are not outliers but a filter
-        that has diverged: it starts again from the next fixes, keeping its inertia estimate.
+        that has diverged: the part that diverged (translation or rotation) starts again from
+        the last fix (rpod.models.relative_navigation.reset_diverged).
     """
 
     update_period_s: float = positive(0.1, high=1.0)
@@ -72,6 +78,7 @@ class Ekf:
     gate_probability: float = bounded(0.9999, 0.5, 1.0, high_open=True)
     excitation_sigmas: float = bounded(10.0, 0.0, 1e3)
     max_step_s: float = positive(0.25, high=10.0)
+    process_model: typing.Literal["cw", "exact"] = "cw"
     restart_after_rejections: int = count(4, 1, 1000)
 
     def validate(self) -> None:

@@ -320,3 +320,52 @@ def test_the_chi_square_quantile_is_scipy_stats(dof, probability):
     assert nav.chi_square_quantile(probability, dof) == pytest.approx(
         chi2.ppf(probability, dof), rel=1e-10
     )
+
+
+def _converged_state():
+    return nav.FilterState(
+        t=0.0,
+        p_LC_L=np.array([100.0, -800.0, 50.0]),
+        v_LC_L=np.array([0.1, 0.0, -0.05]),
+        q_IT=np.array([1.0, 0.0, 0.0, 0.0]),
+        w_IT_T=np.radians([1.0, 0.5, 2.0]),
+        inertia_parameters=np.array([0.2, -0.3]),
+        P=np.diag([0.05] * 3 + [1e-6] * 3 + [1e-4] * 3 + [1e-8] * 3 + [1e-5] * 2),
+    )
+
+
+@pytest.mark.parametrize(
+    ("position_off_m", "attitude_off_deg", "parts"),
+    [
+        (0.0, 40.0, ("rotation",)),  # the tumble's model failed; the translation is fine
+        (60.0, 0.0, ("translation",)),  # an untold manoeuvre; the tumble is fine
+        (60.0, 40.0, ("translation", "rotation")),
+    ],
+)
+def test_a_diverged_filter_resets_only_the_part_that_diverged(
+    position_off_m, attitude_off_deg, parts
+):
+    state = _converged_state()
+    fix = nav.PoseMeasurement(
+        0.0,
+        state.p_LC_L + position_off_m / np.sqrt(3.0),
+        quaternion_product(
+            state.q_IT, rotation_vector_quaternion(np.radians([attitude_off_deg, 0, 0]))
+        ),
+        8.0,
+        np.radians(2.0),
+    )
+    reset, which = nav.reset_diverged(state, fix, 0.5, PRIOR, 0.9999)
+    assert which == parts
+    kept_translation = "translation" not in parts
+    assert np.array_equal(reset.v_LC_L, state.v_LC_L)  # rates and velocity are kept, always
+    assert np.array_equal(reset.w_IT_T, state.w_IT_T)
+    np.testing.assert_array_equal(
+        reset.P[0:6, 0:6] == state.P[0:6, 0:6],
+        np.full((6, 6), kept_translation) | (state.P[0:6, 0:6] == 0.0) & (reset.P[0:6, 0:6] == 0.0),
+    )
+    if "rotation" in parts:
+        np.testing.assert_array_equal(reset.q_IT, fix.q_IT)
+        assert reset.P[9, 9] == pytest.approx(2.0 * np.radians(2.0) ** 2 / 0.5**2)
+        assert reset.P[12, 12] >= PRIOR.sigma**2
+    assert np.all(np.linalg.eigvalsh(reset.P) > 0.0)
