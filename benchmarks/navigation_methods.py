@@ -24,6 +24,7 @@ import dataclasses
 import json
 import multiprocessing
 import pathlib
+import re
 import statistics
 import sys
 import time
@@ -145,6 +146,12 @@ def _fmt(value, digits=3):
     if value is None:
         return "-"
     return f"{value:.{digits}g}" if isinstance(value, float) else str(value)
+
+
+def _case_name(label: str) -> str:
+    """A case's label with its numbers to 4 significant digits (a grid point's label carries
+    every digit of its values)."""
+    return re.sub(r"\d+\.\d{5,}", lambda match: f"{float(match.group()):.4g}", label)
 
 
 def _level_name(level) -> str:
@@ -272,7 +279,7 @@ def report(results: list[dict], jobs: int, planned: dict) -> str:
         for r in failures:
             outcome = r.get("outcome") or r.get("error", "")
             lines.append(
-                f"| {r['method']} | {r['case']} | {_level_name(r['level'])} | {outcome} "
+                f"| {r['method']} | {_case_name(r['case'])} | {_level_name(r['level'])} | {outcome} "
                 f"| {_fmt(r.get('position_rms'))} | {_fmt(r.get('attitude_rms'))} "
                 f"| {_fmt(r.get('rate_rms'))} | {_fmt(r.get('nees_mean'))} |"
             )
@@ -306,7 +313,10 @@ def main(argv=None) -> int:
         help="each finished run, one JSON line (resumed from: runs in it are not flown again)",
     )
     parser.add_argument(
-        "--report-only", action="store_true", help="write the report from --runs as it is"
+        "--report-only",
+        action="store_true",
+        help="write the report from --runs as it is (the committed runs: "
+        "benchmarks/results/navigation_runs.jsonl)",
     )
     args = parser.parse_args(argv)
     from rpod.scenarios.loader import dump_scenario
