@@ -239,3 +239,15 @@ def test_the_controller_is_built_with_the_inertia_the_navigation_estimated():
     )
     assert np.trace(J) == pytest.approx(np.trace(DIAGONAL))  # the stated magnitude
     assert scenario.target.inertia_kg_m2 == DIAGONAL  # the truth keeps its own
+
+
+def test_the_exact_relative_motion_is_a_process_model_the_filter_flies_on():
+    base = _hold_point(30.0)
+    cw = simulate(dataclasses.replace(base, navigation=Ekf())).summary["navigation"]
+    exact = simulate(dataclasses.replace(base, navigation=Ekf(process_model="exact")))
+    nav = exact.summary["navigation"]
+    # At 30 m CW and the exact motion differ by ~1e-9 m/s^2: the same estimate, near enough.
+    assert nav["errors"]["position"]["rms"] == pytest.approx(
+        cw["errors"]["position"]["rms"], rel=0.05
+    )
+    assert nav["fixes_rejected"] == 0
