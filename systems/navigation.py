@@ -83,7 +83,7 @@ _SIGMA_FLOOR_M, _SIGMA_FLOOR_RAD = 1e-3, 1e-3
 
 @dataclasses.dataclass(frozen=True)
 class TruthSample:
-    """What the sensors see of the truth at one tick: the true sensed bundle and the chaser's
+    """What the sensors see of the truth at one event: the true sensed bundle and the chaser's
     orbit (its GNSS fix and its velocity change come from it)."""
 
     sensed: np.ndarray  # (33)
@@ -92,23 +92,23 @@ class TruthSample:
 
 @dataclasses.dataclass(frozen=True)
 class NavigationMemory:
-    """Everything the navigation holds between ticks. Never changed in place: each tick makes a
+    """Everything the navigation holds between events. Never changed in place: each event makes a
     new one, so Drake's clones of a context may share it."""
 
-    tick: int = -1  # the last tick done (its time is tick * period + start)
+    tick: int = -1  # the tick of the last event (its time: start_s + tick * period)
     filter: rn.FilterState | None = None  # at the last fix used
     first_fix: rn.PoseMeasurement | None = None  # before the filter has started
     pending: tuple = ()  # fixes taken, not yet arrived
-    segments: tuple = ()  # (t0, t1, (dp_L, dv_L)): the thrust's increments, tick by tick
-    estimate: rn.FilterState | None = None  # the filter carried to the last tick
-    chaser_last: np.ndarray | None = None  # chaser_state_I at the last tick (true)
+    segments: tuple = ()  # (t0, t1, (dp_L, dv_L)): the thrust's increments, event to event
+    estimate: rn.FilterState | None = None  # the filter carried to the last event
+    chaser_last: np.ndarray | None = None  # chaser_state_I at the last event (true)
     gyro_bias: np.ndarray | None = None
-    q_IC: np.ndarray | None = None  # the chaser's attitude estimate at the last tick
+    q_IC: np.ndarray | None = None  # the chaser's attitude estimate at the last event
     w_IC_C: np.ndarray | None = None  # the gyro's mean rate over gyro_readings
     gyro_readings: tuple = ()  # (interval, mean rate) over the last gyro_window_s
     q_IC_true: np.ndarray | None = None  # the gyro's reference at the last event (its truth)
-    target_I: np.ndarray | None = None  # the target's orbit estimate at the last tick
-    R_IL: np.ndarray | None = None  # its LVLH frame at the last tick
+    target_I: np.ndarray | None = None  # the target's orbit estimate at the last event
+    R_IL: np.ndarray | None = None  # its LVLH frame at the last event
     q_IL: np.ndarray | None = None
     w_IL_L: np.ndarray | None = None
     counts: tuple = (0, 0, 0, 0)  # fixes used, rejected, unseen; restarts
@@ -120,7 +120,7 @@ class NavigationMemory:
 
 
 class NavigationComputer:
-    """The navigation's computation, tick by tick, on plain arrays: the system's updates and
+    """The navigation's computation, event by event, on plain arrays: the system's updates and
     the lead-in call the same `tick`.
 
     Args:
@@ -214,12 +214,12 @@ class NavigationComputer:
         motion,
         with_covariance: bool = True,
     ) -> rn.FilterState:
-        """The filter carried to t (a tick) through the thrust of `segments` (whole ticks): the
-        nominal tick by tick, unforced, plus each tick's thrust increments; the covariance in
-        one prediction (the thrust is a known input: the covariance's growth depends on the
-        tumble's nominal only, and one call with steps of max_step_s costs a third of one
-        call per tick). Without covariance, P is the state's as it was (`covariance_at` carries
-        it when it is read)."""
+        """The filter carried to t (an event) through the thrust of `segments` (whole intervals
+        between events): the nominal interval by interval, unforced, plus each interval's
+        thrust increments; the covariance in one prediction (the thrust is a known input: the
+        covariance's growth depends on the tumble's nominal only, and one call with steps of
+        max_step_s costs a third of one call per interval). Without covariance, P is the
+        state's as it was (`covariance_at` carries it when it is read)."""
         if t <= state.t + _TIME_TOLERANCE_S:
             return state
         s = self.settings
@@ -340,7 +340,7 @@ class NavigationComputer:
                 memory["estimate"] = self._advance(
                     memory["filter"], t, memory["segments"], motion, with_covariance=False
                 )
-            else:  # no new fix: the last tick's nominal, one tick on (`covariance_at`)
+            else:  # no new fix: the last event's nominal, carried on (`covariance_at`)
                 memory["estimate"] = self._carry(previous.estimate, t, increments, motion)
         self._target_orbit(memory, previous, tick, truth, dt)
         memory["tick"] = tick
@@ -403,7 +403,7 @@ class NavigationComputer:
     # ------------------------------------------------------------------------------- output
 
     def covariance_at(self, memory: NavigationMemory) -> np.ndarray:
-        """The filter's covariance (14, 14) carried to the last tick (between fixes the tick
+        """The filter's covariance (14, 14) carried to the last event (between fixes an event
         carries only the nominal; the covariance's growth does not depend on the thrust)."""
         estimate, state = memory.estimate, memory.filter
         if estimate is None:
@@ -430,7 +430,7 @@ class NavigationComputer:
         Both increments, not a mean acceleration: a PWM fires early in its period, and a
         mean acceleration spread over the tick misplaces the position by a dt^2 / 8 every
         tick, a bias the fixes then read as a velocity error (0.45 mm/s on hold_point).
-        Zero before the first tick."""
+        Zero before the first event."""
         if memory.chaser_last is None or memory.R_IL is None or not dt > 0.0:
             return _ZERO3, _ZERO3
         p0, v0 = memory.chaser_last[:3], memory.chaser_last[3:]
@@ -486,7 +486,7 @@ class RelativeNavigation(LeafSystem):
         estimate (15): [p_LC_L, v_LC_L, q_IT, w_IT_T, p_x, p_y] at the last tick.
         covariance (196): the filter's error covariance (14 x 14, row by row) at the last tick,
             in the error state [dp, dv, dtheta_T, dw_T, dk] of rpod.models.relative_navigation.
-        navigation_status (4): STATUS_FIELDS.
+        navigation_status (5): STATUS_FIELDS.
 
     Args:
         computer: the navigation's computation (its config, seed and models).

