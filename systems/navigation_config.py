@@ -117,9 +117,6 @@ class Ekf:
         )
 
 
-NAVIGATION_CHOICES = (Truth, Ekf)
-
-
 def scaled_sensors(config: Ekf) -> tuple[PoseSensor, StarTracker, Gyro, Gnss]:
     """The sensors with their noise times config.noise_scale."""
     s = config.noise_scale
