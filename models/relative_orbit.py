@@ -25,7 +25,7 @@ import dataclasses
 
 import numpy as np
 
-from rpod.models.frames import skew
+from rpod.models.frames import cross, skew
 from rpod.models.gravity import gravity_acceleration_xyz, gravity_gradient
 from rpod.models.orbit import lvlh_of
 
@@ -65,9 +65,9 @@ def relative_acceleration_L(orbit: TargetOrbit, p_L, v_L) -> np.ndarray:
     g_C = np.array(gravity_acceleration_xyz(*p_IC_I.tolist(), orbit.gravity))
     return (
         orbit.R_IL.T @ (g_C - orbit.g_T)
-        - 2.0 * np.cross(w, v_L)
-        - np.cross(w, np.cross(w, p_L))
-        - np.cross(orbit.w_dot_IL_L, p_L)
+        - 2.0 * cross(w, v_L)
+        - cross(w, cross(w, p_L))
+        - cross(orbit.w_dot_IL_L, p_L)
     )
 
 

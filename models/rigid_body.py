@@ -123,7 +123,7 @@ def attitude_pd_torque(
     if alpha_ff_B is not None:  # added first: the controllers' results stay bit-identical
         command = alpha_ff_B + command
     command = command + 2.0 * damping * w_a * np.asarray(w_error_B)
-    return J @ command + np.cross(w_IB_B, J @ w_IB_B)
+    return J @ command + cross(w_IB_B, J @ w_IB_B)
 
 
 def rotational_kinetic_energy(J, w_B) -> float:

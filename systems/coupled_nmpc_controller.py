@@ -48,7 +48,7 @@ from pydrake.common.value import Value
 from pydrake.systems.framework import LeafSystem
 
 from rpod.models import coupled_relative as cr
-from rpod.models.frames import rotation_from_wxyz
+from rpod.models.frames import cross, rotation_from_wxyz
 from rpod.planners.coupled_nmpc import NmpcStatus
 from rpod.systems.sensed import Sensed, declare_sensed_input
 
@@ -96,7 +96,7 @@ def chaser_inertial_state(sensed: Sensed) -> tuple[np.ndarray, np.ndarray]:
     w_IL_L = np.asarray(sensed.w_IL_L, dtype=float)
     target = np.asarray(sensed.target_state_I, dtype=float)
     p_IC_I = target[:3] + R_IL @ p_LC_L
-    v_IC_I = target[3:] + R_IL @ (np.asarray(sensed.v_LC_L, float) + np.cross(w_IL_L, p_LC_L))
+    v_IC_I = target[3:] + R_IL @ (np.asarray(sensed.v_LC_L, float) + cross(w_IL_L, p_LC_L))
     return p_IC_I, v_IC_I
 
 

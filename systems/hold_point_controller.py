@@ -37,7 +37,7 @@ from pydrake.systems.framework import LeafSystem
 from rpod.models.config import bounded, check_bounds, positive
 from rpod.models.cw import cw_acceleration
 from rpod.models.docking import DockingGeometry
-from rpod.models.frames import rotation_from_wxyz
+from rpod.models.frames import cross, rotation_from_wxyz
 from rpod.models.rigid_body import attitude_pd_torque
 from rpod.systems.sensed import Sensed, declare_sensed_input
 
@@ -89,15 +89,15 @@ def _unit(v: np.ndarray) -> np.ndarray:
 
 def _rotate_towards(u_from: np.ndarray, u_to: np.ndarray, max_angle: float) -> np.ndarray:
     """The unit vector at most max_angle from u_from on the great circle towards u_to."""
-    angle = math.acos(float(np.clip(u_from @ u_to, -1.0, 1.0)))
+    angle = math.acos(min(max(float(u_from @ u_to), -1.0), 1.0))
     if angle <= max_angle:
         return u_to
-    axis = np.cross(u_from, u_to)
+    axis = cross(u_from, u_to)
     if np.linalg.norm(axis) < 1e-9:  # antiparallel: any perpendicular axis will do
-        axis = np.cross(u_from, [1.0, 0.0, 0.0] if abs(u_from[0]) < 0.9 else [0.0, 1.0, 0.0])
+        axis = cross(u_from, [1.0, 0.0, 0.0] if abs(u_from[0]) < 0.9 else [0.0, 1.0, 0.0])
     axis = _unit(axis)
     c, s = math.cos(max_angle), math.sin(max_angle)
-    return c * u_from + s * np.cross(axis, u_from)
+    return c * u_from + s * cross(axis, u_from)
 
 
 def _pointing_rotation(z_axis: np.ndarray, x_hint: np.ndarray, fallback: np.ndarray) -> np.ndarray:
@@ -106,7 +106,7 @@ def _pointing_rotation(z_axis: np.ndarray, x_hint: np.ndarray, fallback: np.ndar
     if np.linalg.norm(x) < 1e-6:  # the hint is (anti)parallel to the axis: use the fallback
         x = fallback - (fallback @ z_axis) * z_axis
     x = _unit(x)
-    return np.column_stack((x, np.cross(z_axis, x), z_axis))
+    return np.column_stack((x, cross(z_axis, x), z_axis))
 
 
 class HoldPointController(LeafSystem):
@@ -175,12 +175,12 @@ class HoldPointController(LeafSystem):
         p_H = R_LT @ self._p_TH_T
         range_H, range_C = np.linalg.norm(p_H), max(np.linalg.norm(p), 1e-9)
         u_C, u_H = p / range_C, p_H / range_H
-        off_axis = math.acos(float(np.clip(u_C @ u_H, -1.0, 1.0)))
+        off_axis = math.acos(min(max(float(u_C @ u_H), -1.0), 1.0))
         gate = math.radians(cfg.descent_gate_deg)
         blend = min(max((off_axis - gate) / gate, 0.0), 1.0)  # 0 inside the gate, 1 beyond 2x
         range_R = range_H + blend * max(range_C - range_H, 0.0)
         p_R = range_R * _rotate_towards(u_C, u_H, math.radians(cfg.max_reference_step_deg))
-        v_R = np.cross(w_LT_L, p_R)
+        v_R = cross(w_LT_L, p_R)
 
         # Velocity-limited PD with CW and centripetal feed-forward (paper 004 eq. 12).
         w_n, zeta = cfg.translation_bandwidth_rad_s, cfg.translation_damping
@@ -191,7 +191,7 @@ class HoldPointController(LeafSystem):
         n = w_IL_L[2]
         a_L = (
             2 * zeta * w_n * (v_R + v_correction - v)
-            + np.cross(w_LT_L, np.cross(w_LT_L, p_R))
+            + cross(w_LT_L, cross(w_LT_L, p_R))
             - cw_acceleration(n, p, v)
         )
         R_IC = rotation_from_wxyz(chaser[0:4])

@@ -60,7 +60,7 @@ from pydrake.systems.framework import EventStatus, LeafSystem
 
 from rpod.models.config import ConfigError, bounded, check_bounds, count, positive
 from rpod.models.cw import cw_acceleration
-from rpod.models.frames import rotation_from_wxyz
+from rpod.models.frames import cross, rotation_from_wxyz
 from rpod.models.los_corridor import VIOLATION_TOLERANCE_M, LosCorridor, sync_range_m
 from rpod.planners.los_corridor_mpc import LosCorridorMpc, LosMpcSettings, MpcStatus
 from rpod.planners.los_prediction import BodyFrameStep, TargetState, cw_body_frame_matrices
@@ -218,13 +218,13 @@ class BodyFrameView:
         p_L = np.array(sensed.p_LC_L, dtype=float)
         v_L = np.array(sensed.v_LC_L, dtype=float)
         p_T = R_LT.T @ p_L
-        v_T = R_LT.T @ v_L - np.cross(w_LT_T, p_T)
+        v_T = R_LT.T @ v_L - cross(w_LT_T, p_T)
         return cls(p_T, v_T, p_L, v_L, R_LT, w_LT_T, float(w_IL_L[2]))
 
     def command_L(self, a_T: np.ndarray) -> np.ndarray:
         """u_L that gives the body-frame acceleration a_T (module docstring)."""
         w = self.w_LT_T
-        apparent = 2.0 * np.cross(w, self.v_T) + np.cross(w, np.cross(w, self.p_T))
+        apparent = 2.0 * cross(w, self.v_T) + cross(w, cross(w, self.p_T))
         return self.R_LT @ (a_T + apparent) - cw_acceleration(self.n, self.p_L, self.v_L)
 
 
@@ -261,7 +261,7 @@ def nominal_command_L(
         # cannot be followed, so the law closes in at the cap instead of chasing it round.
         w_L = view.R_LT @ view.w_LT_T
         p_ref_L = view.R_LT @ p_ref_T
-        v_ref_L = np.cross(w_L, p_ref_L)
+        v_ref_L = cross(w_L, p_ref_L)
         v_des = _saturate(v_ref_L + w_n / (2 * zeta) * (p_ref_L - view.p_L), speed_limit)
         return 2 * zeta * w_n * (v_des - view.v_L) - cw_acceleration(view.n, view.p_L, view.v_L)
     v_des_T = w_n / (2 * zeta) * error_T

@@ -45,6 +45,7 @@ from pydrake.systems.framework import LeafSystem
 from rpod.models import relative_navigation as rn
 from rpod.models.frames import (
     attitude_error,
+    cross,
     quaternion_product,
     quaternion_wxyz,
     rotation_from_wxyz,
@@ -393,7 +394,7 @@ class NavigationComputer:
             reference = target if target is not None else np.concatenate([p_IC, v_IC])
             R_IL, w_IL_L = lvlh_of(reference[:3], reference[3:], self.gravity)
             p_TC_I = R_IL @ estimate.p_LC_L
-            v_TC_I = R_IL @ (estimate.v_LC_L + np.cross(w_IL_L, estimate.p_LC_L))
+            v_TC_I = R_IL @ (estimate.v_LC_L + cross(w_IL_L, estimate.p_LC_L))
             target = np.concatenate([p_IC - p_TC_I, v_IC - v_TC_I])
         memory["target_I"] = target
         if target is not None:

@@ -32,7 +32,7 @@ import numpy as np
 from pydrake.systems.framework import LeafSystem
 
 from rpod.models.docking import DockingGeometry
-from rpod.models.frames import lvlh_to_inertial, rotation_from_wxyz
+from rpod.models.frames import cross, lvlh_to_inertial, rotation_from_wxyz
 from rpod.models.shapes import ContactTest, ConvexPolytope, separation_distance
 from rpod.systems.sensed import SENSED_PORT, Sensed, declare_sensed_input
 
@@ -114,8 +114,8 @@ class SafetyMonitor(LeafSystem):
         R_LT, R_LC, p_LC_L, v_LC_L, R_IL, w_IL_L, target, chaser = self._poses(context)
         _, v_TC_I = lvlh_to_inertial(R_IL, w_IL_L, p_LC_L, v_LC_L)
         R_IT, R_IC = R_IL @ R_LT, R_IL @ R_LC
-        v_E = v_TC_I + R_IC @ np.cross(chaser[4:7], self._p_CE_C)
-        v_D = R_IT @ np.cross(target[4:7], self._p_TD_T)
+        v_E = v_TC_I + R_IC @ cross(chaser[4:7], self._p_CE_C)
+        v_D = R_IT @ cross(target[4:7], self._p_TD_T)
         output.SetAtIndex(0, float(np.linalg.norm(v_E - v_D)))
 
 

@@ -110,7 +110,7 @@ from pydrake.systems.framework import LeafSystem
 from rpod.models.config import ConfigError, bounded, check_bounds, count, positive
 from rpod.models.cw import cw_acceleration, cw_state_transition, cw_zoh_input
 from rpod.models.docking import capture_reach_T
-from rpod.models.frames import rotation_from_wxyz
+from rpod.models.frames import cross, rotation_from_wxyz
 from rpod.models.rigid_body import angular_acceleration, attitude_pd_torque
 from rpod.models.shapes import (
     ConvexPolytope,
@@ -589,7 +589,7 @@ class SoftCaptureController(LeafSystem):
         R_prev = memory.R_LC_des if memory.R_LC_des is not None else R_LC
         R_LC_des = min_rotation(R_prev @ self._c_C, los) @ R_prev
         p_squared = max(p @ p, 1e-18)
-        w_LC_des_L = np.cross(p, v) / p_squared  # line-of-sight rate, no roll
+        w_LC_des_L = cross(p, v) / p_squared  # line-of-sight rate, no roll
         R_IC_des = R_IL @ R_LC_des
         error = RotationMatrix(R_IC.T @ R_IC_des).ToAngleAxis()
         e_C = error.axis() * error.angle()
@@ -598,8 +598,8 @@ class SoftCaptureController(LeafSystem):
         alpha_des_C = None
         if cfg.attitude_feedforward:  # the desired rate's inertial derivative (module docstring)
             a_rel = a_ff + cw_acceleration(self._n, p, v)
-            w_dot_L = np.cross(p, a_rel) / p_squared - 2.0 * (p @ v) / p_squared * w_LC_des_L
-            alpha_des_C = R_IC.T @ (R_IL @ (w_dot_L + np.cross(w_IL_L, w_LC_des_L)))
+            w_dot_L = cross(p, a_rel) / p_squared - 2.0 * (p @ v) / p_squared * w_LC_des_L
+            alpha_des_C = R_IC.T @ (R_IL @ (w_dot_L + cross(w_IL_L, w_LC_des_L)))
         tau_C = attitude_pd_torque(
             self._J_C, e_C, w_des_C - w_IC_C, w_IC_C, w_a, zeta_a, alpha_des_C
         )
@@ -627,12 +627,10 @@ class SoftCaptureController(LeafSystem):
         # After the final knot: hold the capture pose, a point fixed in T (module docstring).
         z_L_in_T = R_LT.T @ np.array([0.0, 0.0, n])
         w_LT_T = w_IT_T - z_L_in_T  # the target's rate relative to L
-        w_dot_LT_T = angular_acceleration(self._J_T, w_IT_T) + np.cross(w_LT_T, z_L_in_T)
+        w_dot_LT_T = angular_acceleration(self._J_T, w_IT_T) + cross(w_LT_T, z_L_in_T)
         w_LT_L = R_LT @ w_LT_T
         p_ref = R_LT @ self._reach_T  # (13): p* = R_LT (D_t - R_y(pi) D_c)
-        v_ref = np.cross(w_LT_L, p_ref)  # (14) with the chaser capture point's lever
-        a_ref = R_LT @ np.cross(w_dot_LT_T, self._reach_T) + np.cross(
-            w_LT_L, np.cross(w_LT_L, p_ref)
-        )
+        v_ref = cross(w_LT_L, p_ref)  # (14) with the chaser capture point's lever
+        a_ref = R_LT @ cross(w_dot_LT_T, self._reach_T) + cross(w_LT_L, cross(w_LT_L, p_ref))
         a_ff = a_ref - cw_acceleration(n, p_ref, v_ref)  # the unforced CW part, cancelled
         return p_ref, v_ref, self._mass * a_ff, a_ff, MODE_CAPTURE_HOLD
