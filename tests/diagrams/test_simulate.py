@@ -133,7 +133,17 @@ RECORDING_CASES = {
 }
 
 
-@pytest.mark.parametrize("name", sorted(RECORDING_CASES))
+# By default three methods (the scene's events are the same code for all); the other two slow.
+RECORDING_SLOW = {"asteroid_grasp", "planar_approach"}
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        pytest.param(name, marks=pytest.mark.slow) if name in RECORDING_SLOW else name
+        for name in sorted(RECORDING_CASES)
+    ],
+)
 def test_a_recording_leaves_the_log_bit_identical(name):
     _, base = load_scenario(name)
     scenario = apply_overrides(base, RECORDING_CASES[name])

@@ -1,6 +1,7 @@
 """Fixtures of the campaign tests: processes in their own sessions, killed with their group at
 teardown whatever the outcome; a real Dask cluster on 127.0.0.1; the small campaign run once;
-a sweep whose driver was SIGKILLed mid-campaign, once, handed out as copies.
+a sweep whose driver was SIGKILLed mid-campaign, once; both shared by the xdist workers and
+handed out as copies.
 Every wait has a bounded timeout.
 """
 
@@ -56,16 +57,32 @@ def dask_cluster(spawn, tmp_path):
 
 
 @pytest.fixture(scope="session")
-def small_campaign_local(tmp_path_factory):
-    """The small campaign run locally once through the CLI: (campaign file, output folder)."""
+def small_campaign_local(made_once, tmp_path_factory):
+    """The small campaign run locally once per session through the CLI (its folder shared by
+    the xdist workers: tests/conftest.made_once): (campaign file, output folder, the completed
+    process), a copy of them per worker, since some tests sweep into the folder again."""
+
+    def make(folder):
+        campaign = folder / "small.yaml"
+        campaign.write_text(SMALL_CAMPAIGN)
+        process = run_rpod(
+            "sweep", str(campaign), "--out", str(folder / "out"), "--workers", "2", cwd=folder
+        )
+        assert process.returncode == 0, process.stderr
+        (folder / "sweep.stdout").write_text(process.stdout)
+        (folder / "sweep.stderr").write_text(process.stderr)
+
+    shared = made_once("small_local", make)
     folder = tmp_path_factory.mktemp("small_local")
-    campaign = folder / "small.yaml"
-    campaign.write_text(SMALL_CAMPAIGN)
-    process = run_rpod(
-        "sweep", str(campaign), "--out", str(folder / "out"), "--workers", "2", cwd=folder
+    shutil.copy2(shared / "small.yaml", folder / "small.yaml")
+    shutil.copytree(shared / "out", folder / "out")  # bytes and mtimes
+    process = subprocess.CompletedProcess(
+        ["rpod", "sweep"],
+        0,
+        (shared / "sweep.stdout").read_text(),
+        (shared / "sweep.stderr").read_text(),
     )
-    assert process.returncode == 0, process.stderr
-    return campaign, folder / "out", process
+    return folder / "small.yaml", folder / "out", process
 
 
 def _group_gone(pgid: int) -> bool:
@@ -77,42 +94,46 @@ def _group_gone(pgid: int) -> bool:
 
 
 @pytest.fixture(scope="session")
-def sweep_killed_mid_campaign(tmp_path_factory):
+def sweep_killed_mid_campaign(made_once, tmp_path_factory):
     """copy() -> (campaign file, output folder): a fresh copy of one sweep's folder (its store,
     with the results still in its -wal, and every other file) as `kill -9` of the driver left it.
 
-    The sweep (10 coasting runs, 2 local workers) runs once per session: its driver alone is
-    SIGKILLed after two finished runs, while runs are pending, and its workers and runners
-    notice the driver is gone and exit by themselves. Each test gets its own copy, so one can
-    sweep into it again and another can check that a report changes none of its bytes.
+    The sweep (10 coasting runs, 2 local workers) runs once per session (shared by the xdist
+    workers: tests/conftest.made_once): its driver alone is SIGKILLed after two finished runs,
+    while runs are pending, and its workers and runners notice the driver is gone and exit by
+    themselves. Each test gets its own copy, so one can sweep into it again and another can
+    check that a report changes none of its bytes.
     """
-    folder = tmp_path_factory.mktemp("killed_sweep")
-    campaign = folder / "slow.yaml"
-    campaign.write_text(SLOW_COAST_CAMPAIGN)
-    out = folder / "out"
-    store = out / "results.sqlite"
-    with open(folder / "driver.out", "w") as stdout, open(folder / "driver.err", "w") as stderr:
-        driver = subprocess.Popen(
-            rpod_command("sweep", str(campaign), "--out", str(out), "--workers", "2"),
-            cwd=folder,
-            stdout=stdout,
-            stderr=stderr,
-            start_new_session=True,
-        )
-    try:
-        wait_until(lambda: store_counts(store)["ok"] >= 2, 240, "two finished runs")
-        os.kill(driver.pid, signal.SIGKILL)  # the driver only, as `kill -9 PID` would
-        driver.wait(timeout=30)
-        wait_until(lambda: _group_gone(driver.pid), 60, "the killed driver's workers to exit")
-    finally:
-        kill_group(driver)
-    counts = store_counts(store)
-    assert counts["pending"] > 0, counts  # it really was mid-campaign
+
+    def make(folder):
+        campaign = folder / "slow.yaml"
+        campaign.write_text(SLOW_COAST_CAMPAIGN)
+        out = folder / "out"
+        store = out / "results.sqlite"
+        with open(folder / "driver.out", "w") as stdout, open(folder / "driver.err", "w") as err:
+            driver = subprocess.Popen(
+                rpod_command("sweep", str(campaign), "--out", str(out), "--workers", "2"),
+                cwd=folder,
+                stdout=stdout,
+                stderr=err,
+                start_new_session=True,
+            )
+        try:
+            wait_until(lambda: store_counts(store)["ok"] >= 2, 240, "two finished runs")
+            os.kill(driver.pid, signal.SIGKILL)  # the driver only, as `kill -9 PID` would
+            driver.wait(timeout=30)
+            wait_until(lambda: _group_gone(driver.pid), 60, "the killed driver's workers to exit")
+        finally:
+            kill_group(driver)
+        counts = store_counts(store)
+        assert counts["pending"] > 0, counts  # it really was mid-campaign
+
+    shared = made_once("killed_sweep", make)
 
     def copy():
         destination = tmp_path_factory.mktemp("killed_sweep_copy")
-        shutil.copy2(campaign, destination / campaign.name)
-        shutil.copytree(out, destination / "out")  # bytes and mtimes, -wal and -shm too
-        return destination / campaign.name, destination / "out"
+        shutil.copy2(shared / "slow.yaml", destination / "slow.yaml")
+        shutil.copytree(shared / "out", destination / "out")  # bytes and mtimes, -wal, -shm
+        return destination / "slow.yaml", destination / "out"
 
     return copy

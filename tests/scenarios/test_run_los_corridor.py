@@ -106,7 +106,11 @@ def test_outside_r_sync_reports_the_violation_and_finishes(outside):
         assert f"far command {summary['los_fallback_far_command']}" in line
 
 
-@pytest.mark.parametrize("scenario", ["los_corridor_thrusters", "los_corridor_3d"])
+# The nutating target with one model per predicted step is slow (the same assertions).
+@pytest.mark.parametrize(
+    "scenario",
+    ["los_corridor_thrusters", pytest.param("los_corridor_3d", marks=pytest.mark.slow)],
+)
 def test_beyond_the_paper_thrusters_and_a_non_principal_tumble_hold_the_corridor(
     scenario, tmp_path
 ):

@@ -131,6 +131,7 @@ def test_results_sqlite_alone_holds_every_result_after_the_sweep(spawn, tmp_path
     assert rows == rows_of(out)
 
 
+@pytest.mark.slow  # the family's default member: after the sweep, above
 def test_results_sqlite_alone_holds_every_result_after_sigterm(spawn, tmp_path):
     out = tmp_path / "out"
     store_file = out / STORE_NAME
@@ -302,7 +303,8 @@ def starting_workers(pid: int) -> list[psutil.Process]:
 @pytest.mark.parametrize(
     "signum, whole_group, delay_s",
     [
-        pytest.param(signal.SIGINT, True, 0.0, id="ctrl_c_at_first_worker"),
+        # Ctrl-C once the sweep runs: test_sweep_local.test_ctrl_c_stops_cleanly_and_keeps_...
+        pytest.param(signal.SIGINT, True, 0.0, id="ctrl_c_at_first_worker", marks=pytest.mark.slow),
         pytest.param(signal.SIGINT, True, 0.2, id="ctrl_c_soon_after", marks=pytest.mark.slow),
         pytest.param(signal.SIGTERM, False, 0.1, id="sigterm"),
     ],

@@ -254,14 +254,15 @@ def test_the_config_defaults_are_sec_iv():
     assert dataclasses.replace(config, control_period_s=0.0).period_s() == 60.0
 
 
-# By default the two Gauss-Newton solvers fly Sec. IV (the SQP to convergence every step, and
-# one real-time iteration per step); `pytest -m slow` adds the other solver and the other
-# asteroids, each checked by the same assertions. IPOPT with exact Hessians is still solved
+# By default the SQP flies Sec. IV to convergence every step; `pytest -m slow` adds the
+# real-time iteration, the other solver and the other asteroids, each checked by the same
+# assertions (the RTI also reaches the SQP's answer in tests/planners/test_coupled_sqp.py). IPOPT with exact Hessians is still solved
 # by default in tests/planners/test_coupled_casadi.py (it reaches the SQP's optimum from the
 # Sec. IV start, and warm-starts from its shifted solution).
 ACCEPTANCE = [
     pytest.param("asteroid_grasp", {}, id="sqp"),  # Sec. IV on two-body truth, the SQP
-    pytest.param("asteroid_grasp", {"solver": "rti"}, id="rti"),  # one iteration per step
+    # one real-time iteration per step
+    pytest.param("asteroid_grasp", {"solver": "rti"}, id="rti", marks=pytest.mark.slow),
     # IPOPT with exact Hessians (CasADi), derivatives on CasADi's VM (no compile in the test)
     pytest.param(
         "asteroid_grasp",
