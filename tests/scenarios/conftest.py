@@ -5,6 +5,8 @@ handed out as copies.
 Every wait has a bounded timeout.
 """
 
+import contextlib
+import io
 import os
 import shutil
 import signal
@@ -21,6 +23,8 @@ from campaign_helpers import (
     store_counts,
     wait_until,
 )
+
+from rpod.scenarios import cli
 
 
 @pytest.fixture
@@ -83,6 +87,24 @@ def small_campaign_local(made_once, tmp_path_factory):
         (shared / "sweep.stderr").read_text(),
     )
     return folder / "small.yaml", folder / "out", process
+
+
+@pytest.fixture(scope="session")
+def soft_capture_flown(made_once) -> tuple:
+    """`rpod run soft_capture` of the bundled scenario, once per session (shared by the xdist
+    workers: tests/conftest.made_once): (its output folder, what it printed, its exit status).
+    Read it, never change it."""
+
+    def make(folder):
+        stdout = io.StringIO()
+        with contextlib.redirect_stdout(stdout):
+            code = cli.main(["run", "soft_capture", "--out", str(folder / "run")])
+        (folder / "stdout.txt").write_text(stdout.getvalue())
+        (folder / "exit_status.txt").write_text(str(code))
+
+    folder = made_once("soft_capture_run", make)
+    stdout = (folder / "stdout.txt").read_text()
+    return folder / "run", stdout, int((folder / "exit_status.txt").read_text())
 
 
 def _group_gone(pgid: int) -> bool:

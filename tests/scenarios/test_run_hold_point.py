@@ -114,6 +114,9 @@ def test_hold_is_synchronised_with_the_tumble(run_dir):
         assert np.degrees(np.arccos(np.clip(-capture_axis_L @ line_of_sight, -1, 1))) < 3.0
 
 
+# Slow: tests/scenarios/test_recordings.py checks more of the same framing code by default
+# (each body alone in the first and the last frame of the coast's recording).
+@pytest.mark.slow
 @pytest.mark.skipif(find_chromium() is None, reason="needs Debian's chromium (.ci/run installs it)")
 def test_recording_draws_the_bodies_in_headless_chromium(run_dir, tmp_path):
     import matplotlib.image

@@ -45,8 +45,11 @@ def test_a_missed_capture_says_so_and_exits_3(tmp_path, capsys):
     assert summary["warnings"] and "raise duration_s" in summary["warnings"][0]
 
 
-def test_a_capture_says_when_and_how_close(tmp_path, capsys):
-    code, summary, captured = _run(tmp_path, bundled_scenarios()["soft_capture"], capsys)
+def test_a_capture_says_when_and_how_close(soft_capture_flown):
+    """The bundled scenario's run (conftest.soft_capture_flown, shared with
+    test_run_soft_capture): the line and the summary."""
+    out, stdout, code = soft_capture_flown
+    summary = json.loads((out / "summary.json").read_text())
     assert code == 0 and summary["mission"]["success"] is True
     capture = summary["capture"]
     expected = (
@@ -54,7 +57,7 @@ def test_a_capture_says_when_and_how_close(tmp_path, capsys):
         f"{capture['speed_error_m_s']:.3f} m/s"
     )
     assert summary["mission"]["outcome"] == expected
-    assert captured.out.startswith(f"soft_capture: {expected}; ")
+    assert stdout.startswith(f"soft_capture: {expected}; ")
     # What the top-level planner status is read for: the plan being flown (the initial one
     # here, whose late replans may fail), never a failed late replan's status.
     accepted = [p for p in summary["plans"] if p["accepted"]]

@@ -44,12 +44,25 @@ def _wait_for(predicate, process, timeout_s=TIMEOUT_S):
 @pytest.mark.parametrize(
     "signum, status, message, previous",
     [
-        (signal.SIGTERM, 143, "rpod: terminated (SIGTERM)", "own"),
-        (signal.SIGTERM, 143, "rpod: terminated (SIGTERM)", "foreign"),
-        (signal.SIGTERM, 143, "rpod: terminated (SIGTERM)", None),
-        (signal.SIGINT, 130, "rpod: interrupted", "own"),
+        # A rerun's own output, kept, by default under SIGINT (the other signal: slow).
+        pytest.param(
+            signal.SIGTERM,
+            143,
+            "rpod: terminated (SIGTERM)",
+            "own",
+            id="sigterm-own_output",
+            marks=pytest.mark.slow,
+        ),
+        pytest.param(
+            signal.SIGTERM,
+            143,
+            "rpod: terminated (SIGTERM)",
+            "foreign",
+            id="sigterm-overwrite_foreign",
+        ),
+        pytest.param(signal.SIGTERM, 143, "rpod: terminated (SIGTERM)", None, id="sigterm-nothing"),
+        pytest.param(signal.SIGINT, 130, "rpod: interrupted", "own", id="sigint-own_output"),
     ],
-    ids=["sigterm-own_output", "sigterm-overwrite_foreign", "sigterm-nothing", "sigint-own_output"],
 )
 def test_a_signal_mid_run_cleans_up_and_keeps_what_was_there(
     tmp_path, signum, status, message, previous

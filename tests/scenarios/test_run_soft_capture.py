@@ -2,9 +2,10 @@
 000's capture, flies it on two-body + J2 truth with PWM thrusters, captures within Table I's
 eps_p and eps_v with no contact, and writes the plan into the log and the recording.
 
-The run happens once (module fixture, ~10 s) through `run_to_folder`, the function `rpod run`
-calls. The checks on the capture use the log, not the summary's own verdict: the capture points
-are recomputed here from the logged attitudes, and contact from the SafetyMonitor's separation.
+The run happens once per session (~10 s) through `rpod run`'s `cli.main`, shared with
+test_run_outcome (conftest.soft_capture_flown). The checks on the capture use the log, not the
+summary's own verdict: the capture points are recomputed here from the logged attitudes, and
+contact from the SafetyMonitor's separation.
 Also: the fallback end to end (a tumble above the method's limit: no thrust at all, and the
 summary says why), and a slow Sec. VI-B-like sample of random starts.
 """
@@ -22,17 +23,17 @@ from rpod.diagrams.recording import find_chromium, screenshot_html
 from rpod.diagrams.simulate import simulate
 from rpod.models.frames import rotation_from_wxyz
 from rpod.scenarios.loader import load_scenario
-from rpod.scenarios.run import run_to_folder
 
 EPS_P, EPS_V = 0.35, 0.03  # paper 000 Table I
 D = np.array([0.0, 0.0, 2.7])  # D_c = D_t
 
 
 @pytest.fixture(scope="module")
-def run_dir(tmp_path_factory):
-    name, scenario = load_scenario("soft_capture")
-    out = tmp_path_factory.mktemp("soft_capture") / "run"
-    run_to_folder(name, scenario, out, record=True)
+def run_dir(soft_capture_flown):
+    """The bundled run's folder (conftest.soft_capture_flown: `rpod run soft_capture`, once per
+    session, shared with test_run_outcome)."""
+    out, _, code = soft_capture_flown
+    assert code == 0
     return out
 
 

@@ -137,7 +137,7 @@ def test_campaign_maps_for_both_case_studies(tmp_path):
     assert write_campaign_maps([{"capture_success": True}], tmp_path / "none") == []
 
 
-@pytest.mark.parametrize("n", [1, 2])
+@pytest.mark.parametrize("n", [1, pytest.param(2, marks=pytest.mark.slow)])
 def test_tiny_logs_do_not_break_the_figures(tmp_path, caplog, n):
     log = {k: v[:n] for k, v in _synthetic_log().items()}
     write_plots(log, tmp_path)  # a figure that fails is logged as a warning, not raised
