@@ -37,22 +37,23 @@ def made_once(tmp_path_factory):
 # The longest test files (seconds of the default run, measured with `pytest --durations=0` on
 # 2 cores), handed to the xdist workers first: `--dist loadfile` sends whole files, and by
 # default in the order of their test counts, so a 30 s file of one test came last and the
-# other worker idled while it ran. The rest follow in collection order (pyproject's addopts
-# turn xdist's own reordering off). An unknown or renamed file only loses its place.
+# other worker idled while it ran. Files that start processes (sweeps: a cluster, runners)
+# alternate with files that compute in the worker, so that the two workers' first files are
+# not both a swarm of processes on two cores. The rest follow in collection order (pyproject's
+# addopts turn xdist's own reordering off). An unknown or renamed file only loses its place.
 LONGEST_FIRST = (
-    "tests/scenarios/test_sweep_local.py",  # 58 s
-    "tests/scenarios/test_sweep_reliability.py",  # 49 s
-    "tests/planners/test_coupled_casadi.py",  # 46 s
+    "tests/scenarios/test_sweep_local.py",  # 52-58 s, processes
+    "tests/planners/test_coupled_casadi.py",  # 35-46 s
+    "tests/scenarios/test_sweep_reliability.py",  # 49 s, processes
     "tests/diagrams/controllers/planar_approach/test_planar_approach_plugin.py",  # 44 s
+    "tests/scenarios/test_store_readonly.py",  # 25 s, processes
     "tests/scenarios/test_run_los_corridor.py",  # 44 s
-    "tests/scenarios/test_recordings.py",  # 19-30 s, most of it Chromium
+    "tests/scenarios/test_sweep_dask_cluster.py",  # 22 s, processes
     "tests/planners/test_planar_approach_planner.py",  # 27 s
+    "tests/scenarios/test_plugin_from_file.py",  # 19 s, processes
     "tests/diagrams/test_navigation.py",  # 26 s
-    "tests/scenarios/test_store_readonly.py",  # 25 s
     "tests/models/test_relative_navigation.py",  # 22 s
-    "tests/scenarios/test_sweep_dask_cluster.py",  # 22 s
     "tests/scenarios/test_run_soft_capture.py",  # 20 s
-    "tests/scenarios/test_plugin_from_file.py",  # 19 s
     "tests/scenarios/test_los_table3_guard.py",  # 18 s
     "tests/planners/test_soft_capture_rates.py",  # 17 s
 )
