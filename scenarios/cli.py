@@ -227,6 +227,7 @@ def _cmd_run(args) -> int:
                 record=not args.no_record,
                 overwrite=args.overwrite,
                 progress=progress,
+                plots=not args.no_plots,
             )
     finally:
         progress.done()
@@ -291,6 +292,7 @@ def make_parser() -> argparse.ArgumentParser:
     )
     run.add_argument("--out", help="output folder (default: runs/<scenario>)")
     run.add_argument("--no-record", action="store_true", help="skip the Meshcat recording")
+    run.add_argument("--no-plots", action="store_true", help="skip the figures (plots/)")
     run.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE", help=SET_HELP)
     run.add_argument(
         "--overwrite",

@@ -394,12 +394,15 @@ def run_to_folder(
     record: bool = True,
     overwrite: bool = False,
     progress=None,
+    plots: bool = True,
 ) -> dict:
     """Simulates `scenario` and writes its outputs into out_dir; returns the summary.
 
     out_dir is checked before anything is simulated (`staged_folder`); with `overwrite`, a
     folder rpod did not write is replaced too (`--overwrite`). `progress` (a
     rpod.scenarios.run_progress.RunProgress, or None) is told the phases and the run's time.
+    Without `record` there is no recording.html, without `plots` no plots/ (`--no-record`,
+    `--no-plots`: ~2 s of a short run's matplotlib).
     """
     with staged_folder(out_dir, overwrite) as staging:
         meshcat = None
@@ -414,18 +417,23 @@ def run_to_folder(
         except ConfigError as error:  # found only as the diagram is built (a navigation lead-in)
             raise ScenarioFileError(f"{name}: {error}") from None
         if progress is not None:
-            progress.phase("writing the log, the plots" + (" and the recording" if record else ""))
+            parts = ["the log", *(["the plots"] if plots else [])]
+            parts += ["the recording"] if record else []
+            last = parts.pop()
+            progress.phase("writing " + (", ".join(parts) + " and " if parts else "") + last)
         summary = {"scenario": name, **result.summary}
         np.savez_compressed(staging / "log.npz", **result.log)
         (staging / "scenario.yaml").write_text(dump_scenario(scenario))
-        plugin = plugin_for(scenario.controller)  # its own figures beside the generic ones
-        figures = [plugin] if plugin else []
-        if "nav_p_LC_L" in result.log:  # flown on an estimate: the navigation's figure
-            from rpod.diagrams.navigation_plots import NAVIGATION_FIGURES
+        summary["plots"] = []
+        if plots:
+            plugin = plugin_for(scenario.controller)  # its own figures beside the generic ones
+            figures = [plugin] if plugin else []
+            if "nav_p_LC_L" in result.log:  # flown on an estimate: the navigation's figure
+                from rpod.diagrams.navigation_plots import NAVIGATION_FIGURES
 
-            figures.append(NAVIGATION_FIGURES)
-        plots = write_plots(result.log, staging / "plots", name, figures)
-        summary["plots"] = [p.name for p in plots]
+                figures.append(NAVIGATION_FIGURES)
+            written = write_plots(result.log, staging / "plots", name, figures)
+            summary["plots"] = [p.name for p in written]
         if meshcat is not None:
             from rpod.diagrams.recording import save_recording_html
 

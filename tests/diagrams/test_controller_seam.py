@@ -142,7 +142,7 @@ def _run(tmp_path, controller_yaml: str, thrusters: str = "") -> tuple[int, dict
         "duration_s: 20.0\nlog_period_s: 1.0\n"
     )
     out = tmp_path / "out"
-    code = cli.main(["run", str(scenario), "--out", str(out), "--no-record"])
+    code = cli.main(["run", str(scenario), "--out", str(out), "--no-record", "--no-plots"])
     summary = json.loads((out / "summary.json").read_text())
     log = dict(np.load(out / "log.npz"))
     return code, summary, log

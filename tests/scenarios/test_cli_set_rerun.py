@@ -10,7 +10,7 @@ from rpod.diagrams.simulate import simulate
 from rpod.scenarios import cli
 from rpod.scenarios.campaign import apply_overrides, load_campaign, plan_runs
 
-SHORT_HOLD = ["--set", "duration_s=20.0", "--set", "log_period_s=1.0", "--no-record"]
+SHORT_HOLD = ["--set", "duration_s=20.0", "--set", "log_period_s=1.0", "--no-record", "--no-plots"]
 
 
 def test_set_overrides_fields_with_yaml_values(tmp_path):

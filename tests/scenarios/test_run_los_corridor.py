@@ -42,6 +42,7 @@ def outside(tmp_path_factory):
         out,
         "los_corridor_far",
         "--no-record",
+        "--no-plots",
         "--set",
         "duration_s=250",
         "--set",
@@ -117,7 +118,7 @@ def test_beyond_the_paper_thrusters_and_a_non_principal_tumble_hold_the_corridor
     """The same guidance on 12 PWM thrusters (attitude held in L), and on a nutating target
     with one model per predicted step: zero violations (from the truth) and the hold."""
     out = tmp_path / scenario
-    process = _run(out, scenario, "--no-record", "--set", "duration_s=200")
+    process = _run(out, scenario, "--no-record", "--no-plots", "--set", "duration_s=200")
     assert process.returncode == 0, process.stdout + process.stderr
     summary = json.loads((out / "summary.json").read_text())
     log = np.load(out / "log.npz")
@@ -140,6 +141,7 @@ def test_stop_at_violation_ends_the_run_at_the_first_violating_step(tmp_path):
         out,
         "los_corridor_far",
         "--no-record",
+        "--no-plots",
         "--set",
         "controller.stop_at_violation=true",
         "--set",
@@ -164,6 +166,7 @@ def test_a_start_the_hard_filter_gives_up_on_flies_the_best_effort_qp(tmp_path):
         out,
         "los_corridor",
         "--no-record",
+        "--no-plots",
         "--set",
         "target.w_IT_T_deg_s=[0, 0, 4]",
         "--set",
@@ -189,7 +192,13 @@ def test_the_offered_hold_distance_holds_where_the_warned_one_cannot(tmp_path):
     settings += ["chaser.p_LC_L=[0, 5, 0]"]
     args = [arg for setting in settings for arg in ("--set", setting)]
     warned = _run(
-        tmp_path / "warned", "los_corridor", "--no-record", *args, "--set", "duration_s=5"
+        tmp_path / "warned",
+        "los_corridor",
+        "--no-record",
+        "--no-plots",
+        *args,
+        "--set",
+        "duration_s=5",
     )
     assert "rpod: warning: controller.hold_distance_m: the hold point 10 m" in warned.stderr
     assert "hold_distance_m = 3.28" in warned.stderr
@@ -197,6 +206,7 @@ def test_the_offered_hold_distance_holds_where_the_warned_one_cannot(tmp_path):
         tmp_path / "offered",
         "los_corridor",
         "--no-record",
+        "--no-plots",
         *args,
         "--set",
         "controller.hold_distance_m=3.28",

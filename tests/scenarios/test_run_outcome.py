@@ -26,7 +26,7 @@ def _scenario(tmp_path, replacements: dict, name="case.yaml"):
 
 def _run(tmp_path, path, capsys):
     out = tmp_path / "out"
-    code = cli.main(["run", str(path), "--out", str(out), "--no-record"])
+    code = cli.main(["run", str(path), "--out", str(out), "--no-record", "--no-plots"])
     captured = capsys.readouterr()
     return code, json.loads((out / "summary.json").read_text()), captured
 
@@ -37,6 +37,7 @@ def test_a_missed_capture_says_so_and_exits_3(tmp_path, capsys):
     code, summary, captured = _run(tmp_path, path, capsys)
     assert code == cli.EXIT_MISSION_FAILED == 3
     assert summary["status"] == "ok"  # the simulation ran
+    assert summary["plots"] == [] and not (tmp_path / "out" / "plots").exists()  # --no-plots
     assert summary["mission"]["success"] is False
     assert summary["mission"]["outcome"].startswith("NOT captured: ")
     (line,) = captured.out.strip().splitlines()

@@ -371,7 +371,7 @@ def test_issue_19_reproduction_says_contact_and_not_a_success():
         "chaser.p_LC_L=[-0.801452, -0.192196, 0]",
     ]
     command = [sys.executable, "-m", "rpod.scenarios.cli", "run", "planar_approach"]
-    command += ["--no-record", "--overwrite", "--out", str(_tmp_out())]
+    command += ["--no-record", "--no-plots", "--overwrite", "--out", str(_tmp_out())]
     for item in sets:
         command += ["--set", item]
     done = subprocess.run(command, check=False, capture_output=True, text=True, timeout=300)
