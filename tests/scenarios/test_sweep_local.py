@@ -19,6 +19,7 @@ from campaign_helpers import (
     assert_same_metric,
     rpod_command,
     run_rpod,
+    run_rpod_in_process,
     store_counts,
     wait_until,
 )
@@ -77,7 +78,7 @@ def test_rerun_with_another_plan_into_the_same_folder_is_refused(small_campaign_
 def test_report_prints_groups_and_writes_plots(small_campaign_local, tmp_path):
     _, out, _ = small_campaign_local
     report_dir = tmp_path / "report"
-    process = run_rpod("report", str(out), "--out", str(report_dir), cwd=tmp_path)
+    process = run_rpod_in_process("report", str(out), "--out", str(report_dir), cwd=tmp_path)
     assert process.returncode == 0, process.stderr
     rows = stored_rows(out)
     groups = sorted({r["grp"] for r in rows})
@@ -103,7 +104,7 @@ def test_report_prints_groups_and_writes_plots(small_campaign_local, tmp_path):
 
 
 def test_report_of_a_missing_folder_exits_2(tmp_path):
-    process = run_rpod("report", str(tmp_path / "nothing"), cwd=tmp_path, timeout=120)
+    process = run_rpod_in_process("report", str(tmp_path / "nothing"), cwd=tmp_path, timeout=120)
     assert process.returncode == 2
     assert len(process.stderr.strip().splitlines()) == 1 and "no results store" in process.stderr
 
