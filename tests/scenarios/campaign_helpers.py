@@ -187,6 +187,34 @@ def kill_group(process: subprocess.Popen) -> None:
         pass
 
 
+def group_gone(pgid: int) -> bool:
+    """Whether no process of the group (a session started with start_new_session) is left."""
+    try:
+        os.killpg(pgid, 0)
+    except ProcessLookupError:
+        return True
+    return False
+
+
+def _detached(command, **kwargs) -> subprocess.Popen:
+    return subprocess.Popen(command, start_new_session=True, **kwargs)
+
+
+def start_detached_sweep(
+    folder, text: str, *args, env=None, name="campaign", start=_detached
+) -> subprocess.Popen:
+    """`rpod sweep` of the campaign `text` (written to folder/NAME.yaml) in its own session,
+    not waited for; its output in folder/NAME.out and .err. `start(command, **kwargs)` starts
+    it (conftest.spawn's, to have it killed with the test); otherwise the caller kills its
+    group."""
+    campaign = folder / f"{name}.yaml"
+    campaign.write_text(text)
+    with open(folder / f"{name}.out", "w") as out, open(folder / f"{name}.err", "w") as err:
+        return start(
+            rpod_command("sweep", str(campaign), *args), cwd=folder, env=env, stdout=out, stderr=err
+        )
+
+
 class DaskCluster:
     """A scheduler and workers, each a separate `python -m distributed.cli...` process."""
 

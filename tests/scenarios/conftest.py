@@ -17,9 +17,10 @@ from campaign_helpers import (
     SLOW_COAST_CAMPAIGN,
     SMALL_CAMPAIGN,
     DaskCluster,
+    group_gone,
     kill_group,
-    rpod_command,
     run_rpod,
+    start_detached_sweep,
     store_counts,
     wait_until,
 )
@@ -107,14 +108,6 @@ def soft_capture_flown(made_once) -> tuple:
     return folder / "run", stdout, int((folder / "exit_status.txt").read_text())
 
 
-def _group_gone(pgid: int) -> bool:
-    try:
-        os.killpg(pgid, 0)
-    except ProcessLookupError:
-        return True
-    return False
-
-
 @pytest.fixture(scope="session")
 def sweep_killed_mid_campaign(made_once, tmp_path_factory):
     """copy() -> (campaign file, output folder): a fresh copy of one sweep's folder (its store,
@@ -128,23 +121,15 @@ def sweep_killed_mid_campaign(made_once, tmp_path_factory):
     """
 
     def make(folder):
-        campaign = folder / "slow.yaml"
-        campaign.write_text(SLOW_COAST_CAMPAIGN)
         out = folder / "out"
         store = out / "results.sqlite"
-        with open(folder / "driver.out", "w") as stdout, open(folder / "driver.err", "w") as err:
-            driver = subprocess.Popen(
-                rpod_command("sweep", str(campaign), "--out", str(out), "--workers", "2"),
-                cwd=folder,
-                stdout=stdout,
-                stderr=err,
-                start_new_session=True,
-            )
+        args = ("--out", str(out), "--workers", "2")
+        driver = start_detached_sweep(folder, SLOW_COAST_CAMPAIGN, *args, name="slow")
         try:
             wait_until(lambda: store_counts(store)["ok"] >= 2, 240, "two finished runs")
             os.kill(driver.pid, signal.SIGKILL)  # the driver only, as `kill -9 PID` would
             driver.wait(timeout=30)
-            wait_until(lambda: _group_gone(driver.pid), 60, "the killed driver's workers to exit")
+            wait_until(lambda: group_gone(driver.pid), 60, "the killed driver's workers to exit")
         finally:
             kill_group(driver)
         counts = store_counts(store)

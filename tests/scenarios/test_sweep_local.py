@@ -17,6 +17,7 @@ from campaign_helpers import (
     DETERMINISTIC,
     SLOW_CAMPAIGN,
     assert_same_metric,
+    group_gone,
     rpod_command,
     run_rpod,
     run_rpod_in_process,
@@ -201,14 +202,6 @@ def test_sigkill_of_the_driver_then_rerun_loses_and_duplicates_nothing(
     connection.close()
 
 
-def _group_gone(pgid: int) -> bool:
-    try:
-        os.killpg(pgid, 0)
-    except ProcessLookupError:
-        return True
-    return False
-
-
 def test_ctrl_c_stops_cleanly_and_keeps_what_finished(spawn, tmp_path):
     campaign = tmp_path / "slow.yaml"
     campaign.write_text(SLOW_CAMPAIGN)
@@ -224,4 +217,4 @@ def test_ctrl_c_stops_cleanly_and_keeps_what_finished(spawn, tmp_path):
     assert counts["ok"] + counts["pending"] == 10
     finished = re.search(r"(\d+) ok, 0 failed, (\d+) pending", error)
     assert finished and int(finished.group(1)) == counts["ok"]  # what it said is what it kept
-    wait_until(lambda: _group_gone(driver.pid), 60, "the workers to exit")  # nothing left over
+    wait_until(lambda: group_gone(driver.pid), 60, "the workers to exit")  # nothing left over

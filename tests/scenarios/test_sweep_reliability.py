@@ -24,9 +24,10 @@ from campaign_helpers import (
     CLI_TIMEOUT_S,
     SLOW_COAST_CAMPAIGN,
     SMALL_CAMPAIGN,
+    group_gone,
     kill_group,
-    rpod_command,
     run_rpod,
+    start_detached_sweep,
     store_counts,
     wait_until,
 )
@@ -48,17 +49,9 @@ HANG_ENV = dict(os.environ, RPOD_CAMPAIGN_FAULTS="hang:h1,hang:h2")
 
 
 def start_sweep(spawn, tmp_path, text, *args, env=None, name="campaign"):
-    """`rpod sweep` of the campaign `text` in its own session; its output in NAME.out/.err."""
-    campaign = tmp_path / f"{name}.yaml"
-    campaign.write_text(text)
-    with open(tmp_path / f"{name}.out", "w") as out, open(tmp_path / f"{name}.err", "w") as err:
-        return spawn(
-            rpod_command("sweep", str(campaign), *args),
-            cwd=tmp_path,
-            env=env,
-            stdout=out,
-            stderr=err,
-        )
+    """`rpod sweep` of the campaign `text` in its own session, killed with the test (spawn);
+    its output in NAME.out/.err."""
+    return start_detached_sweep(tmp_path, text, *args, env=env, name=name, start=spawn)
 
 
 @pytest.fixture(scope="module")
@@ -67,31 +60,15 @@ def hanging_sweep(tmp_path_factory):
     pending for ever, shared by the tests that only look at a running sweep (a second sweep
     refused, its servers probed); killed with its group at the module's end."""
     folder = tmp_path_factory.mktemp("hanging")
-    campaign = folder / "campaign.yaml"
-    campaign.write_text(HANG_CAMPAIGN)
     out = folder / "out"
-    with open(folder / "campaign.out", "w") as stdout, open(folder / "campaign.err", "w") as err:
-        driver = subprocess.Popen(
-            rpod_command("sweep", str(campaign), "--out", str(out), "--workers", "2"),
-            cwd=folder,
-            env=HANG_ENV,
-            stdout=stdout,
-            stderr=err,
-            start_new_session=True,
-        )
+    driver = start_detached_sweep(
+        folder, HANG_CAMPAIGN, "--out", str(out), "--workers", "2", env=HANG_ENV
+    )
     try:
         wait_until(lambda: store_counts(out / STORE_NAME)["pending"] == 2, 240, "the sweep to run")
         yield driver, folder, out
     finally:
         kill_group(driver)
-
-
-def group_gone(pgid: int) -> bool:
-    try:
-        os.killpg(pgid, 0)
-    except ProcessLookupError:
-        return True
-    return False
 
 
 def rows_of(results) -> list[dict]:
