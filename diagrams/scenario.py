@@ -377,10 +377,7 @@ def _inertia(values, field: str) -> None:
     _require(
         len(values) == 3 and all(len(row) == 3 for row in values), field, "expected a 3x3 matrix"
     )
-    try:
-        validate_inertia(np.asarray(values, dtype=float))
-    except ValueError as error:
-        raise ScenarioError(field, str(error)) from None
+    validate_inertia(np.asarray(values, dtype=float), field)
 
 
 def _rigid_body(config, prefix: str, shapes: tuple[str, ...]) -> None:

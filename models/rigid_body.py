@@ -19,39 +19,41 @@ import numpy as np
 from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RotationMatrix
 
+from rpod.models.config import ConfigError
 from rpod.models.frames import cross
 
 # Relative tolerance for the symmetry and triangle-inequality checks of an inertia matrix.
 _INERTIA_RTOL = 1e-9
 
 
-def validate_inertia(J: np.ndarray) -> None:
+def validate_inertia(J: np.ndarray, field: str = "inertia") -> None:
     """Checks that ``J`` is a physical rotational inertia.
 
     Args:
         J: Candidate inertia matrix.
+        field: The config field it comes from, named in the error.
 
     Raises:
-        ValueError: If ``J`` is not a finite 3x3 symmetric positive-definite matrix whose
-            principal moments satisfy the triangle inequality (each <= the sum of the other two,
-            to a relative tolerance of 1e-9).
+        ConfigError: (a ValueError) If ``J`` is not a finite 3x3 symmetric positive-definite
+            matrix whose principal moments satisfy the triangle inequality (each <= the sum of
+            the other two, to a relative tolerance of 1e-9).
     """
     J = np.asarray(J, dtype=float)
     if J.shape != (3, 3):
-        raise ValueError(f"inertia must be 3x3, got shape {J.shape}")
+        raise ConfigError(field, f"must be a 3x3 matrix, got shape {J.shape}")
     if not np.all(np.isfinite(J)):
-        raise ValueError(f"inertia has non-finite entries: {J.tolist()}")
+        raise ConfigError(field, f"has non-finite entries: {J.tolist()}")
     scale = np.max(np.abs(J))
     if not np.allclose(J, J.T, rtol=0.0, atol=_INERTIA_RTOL * scale):
-        raise ValueError(f"inertia is not symmetric: {J.tolist()}")
+        raise ConfigError(field, f"is not symmetric: {J.tolist()}")
     moments = np.linalg.eigvalsh(0.5 * (J + J.T))
     if moments[0] <= 0.0:
-        raise ValueError(f"inertia is not positive definite, principal moments {moments.tolist()}")
+        raise ConfigError(field, f"is not positive definite, principal moments {moments.tolist()}")
     # eigvalsh sorts ascending, so the largest moment is the only one that can break it.
     if moments[2] > (moments[0] + moments[1]) * (1.0 + _INERTIA_RTOL):
-        raise ValueError(
-            "inertia violates the triangle inequality J3 <= J1 + J2, principal moments "
-            f"{moments.tolist()}"
+        raise ConfigError(
+            field,
+            f"violates the triangle inequality J3 <= J1 + J2, principal moments {moments.tolist()}",
         )
 
 

@@ -182,25 +182,25 @@ class SceneGeometry:
     chaser_vertices_C: list[list[float]] = field(default_factory=list)
 
     def validate(self) -> None:
-        """Raises ValueError naming the first bad field."""
+        """Raises ConfigError (a ValueError) naming the first bad field."""
 
         def _vector(name: str, positive: bool = False, nonzero: bool = False) -> None:
             value = np.asarray(getattr(self, name), dtype=float)
             if value.shape != (3,) or not np.all(np.isfinite(value)):
-                raise ValueError(f"SceneGeometry.{name} must be 3 finite numbers, got {value}")
+                raise ConfigError(name, f"must be 3 finite numbers, got {value}")
             if positive and np.any(value <= 0.0):
-                raise ValueError(f"SceneGeometry.{name} must be positive, got {value}")
+                raise ConfigError(name, f"must be positive, got {value}")
             if nonzero and np.linalg.norm(value) < 1e-9:
-                raise ValueError(f"SceneGeometry.{name} must be a nonzero vector")
+                raise ConfigError(name, "must be a nonzero vector")
 
         _vector("target_box_size_m", positive=True)
         _vector("chaser_box_size_m", positive=True)
         _vector("docking_port_T")
         _vector("docking_axis_T", nonzero=True)
         if not 0.0 < self.corridor_half_angle_deg < 90.0:
-            raise ValueError("SceneGeometry.corridor_half_angle_deg must be in (0, 90)")
+            raise ConfigError("corridor_half_angle_deg", "must be in (0, 90)")
         if not np.isfinite(self.corridor_length_m) or self.corridor_length_m <= 0.0:
-            raise ValueError("SceneGeometry.corridor_length_m must be positive")
+            raise ConfigError("corridor_length_m", "must be positive")
         for name in ("target_vertices_T", "chaser_vertices_C"):
             vertices = np.asarray(getattr(self, name), dtype=float)
             if vertices.size and (
@@ -209,7 +209,7 @@ class SceneGeometry:
                 or len(vertices) < 4
                 or not np.all(np.isfinite(vertices))
             ):
-                raise ValueError(f"SceneGeometry.{name} must be empty or >= 4 finite 3-D points")
+                raise ConfigError(name, "must be empty or >= 4 finite 3-D points")
 
     def body_extent_m(self, body: str) -> float:
         """The largest edge of the body's bounding box ('target' or 'chaser') [m]."""
@@ -707,8 +707,8 @@ class PlannedPathOverlay(LeafSystem):
 
     Input port:
         planned_path (abstract): an object with ``index`` (int; 0 = no plan), ``t0_s`` (float)
-            and ``p_LC_L`` ((N, 3) array), e.g. ``rpod.systems.soft_capture_controller.
-            PlannedPath``. A new ``index`` is drawn at the next publish.
+            and ``p_LC_L`` ((N, 3) array): ``rpod.systems.plan_at_start.PlannedPath``. A new
+            ``index`` is drawn at the next publish.
 
     Args:
         meshcat: where to draw.

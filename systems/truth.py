@@ -169,8 +169,8 @@ class Truth(LeafSystem):
         else:
             R_IL, w_IL_L = lvlh_of(p_IT_I, v_IT_I, self._gravity)
             relative0 = np.concatenate(lvlh_to_inertial(R_IL, w_IL_L, p_LC_L0, v_LC_L0))
-        for J in (J_T, J_C):
-            validate_inertia(J)
+        for J, name in ((J_T, "target_inertia"), (J_C, "chaser_inertia")):
+            validate_inertia(J, name)
         self._J_T, self._J_C = np.array(J_T, float), np.array(J_C, float)
         # Inertias and their inverses as flat float tuples for the hot path.
         self._J_T_flat = tuple(self._J_T.ravel().tolist())

@@ -7,6 +7,7 @@ from pydrake.common.eigen_geometry import AngleAxis, Quaternion
 from pydrake.math import RollPitchYaw
 from scipy.integrate import solve_ivp
 
+from rpod.models.config import ConfigError
 from rpod.models.rigid_body import (
     angular_acceleration,
     angular_momentum_in_inertial,
@@ -182,8 +183,9 @@ def test_validate_inertia_accepts_physical():
     ],
 )
 def test_validate_inertia_rejects(J, message):
-    with pytest.raises(ValueError, match=message):
-        validate_inertia(J)
+    with pytest.raises(ConfigError, match=message) as error:
+        validate_inertia(J, "target.inertia_kg_m2")
+    assert error.value.field == "target.inertia_kg_m2"
 
 
 def test_attitude_pd_torque_makes_euler_equations_the_commanded_second_order_law():
