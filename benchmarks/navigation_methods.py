@@ -10,8 +10,9 @@ Writes benchmarks/results/navigation.md. The cases (issue 21):
 - hold point and the asteroid grasp: the bundled scenario and 10 dispersed starts each (drawn
   here with a fixed seed: the chaser's start moved, the tumble's axis and rate drawn);
 - planar approach: the Sec. V-A scenario and 10 Case Study 1 points (every 268th run of
-  `planar_case1`). The pose sensor is the 3-D one: its out-of-plane noise reaches the planar
-  tracker only through the bundle's z components, which it does not read.
+  `planar_case1`), planned at t = 0 from what the tracker senses then (the estimate). The pose
+  sensor is the 3-D one: its out-of-plane noise reaches the planar tracker only through the
+  bundle's z components, which it does not read.
 Each case flies four times: `!Truth`, then `!Ekf {noise_scale: 0 | 1 | 3}` with the scenario's
 seed 0. A run is a success when the mission verdict says so (summary.json's `mission`), which
 is never a success with contact of the true shapes.

@@ -1,8 +1,9 @@
 """Wires a `Scenario` into a Drake Diagram with loggers.
 
 Owns: `build_diagram` (the truth, the sensed bundle, the controller plug-in and the actuation
-path it drives, the safety monitor, loggers on every key signal, the Meshcat scene when asked)
-and `DiagramHandles`.
+path it drives, the safety monitor, loggers on every key signal, the Meshcat scene when asked),
+`DiagramHandles`, and `sensed_at_start` (the bundle a truth-fed controller reads first, which
+`rpod plan` plans from: rpod.diagrams.controller_seam, "Planning once at start").
 Does not own: the scenario's model objects (thruster presets, shapes, initial attitudes:
 scenario.py), running and summarising (simulate.py, metrics.py), files (rpod.scenarios).
 
@@ -104,6 +105,14 @@ def make_truth(scenario: Scenario, layout: ThrusterLayout | None, wrench_input: 
         layout,
         wrench_input=wrench_input,
     )
+
+
+def sensed_at_start(scenario: Scenario) -> np.ndarray:
+    """The sensed vector (rpod.systems.sensed) the truth gives at t = 0: what a controller
+    reads first under `navigation: !Truth`, number for number (the same truth outputs)."""
+    truth = make_truth(scenario, None, False)
+    context = truth.CreateDefaultContext()
+    return np.concatenate([truth.GetOutputPort(name).Eval(context) for name, _ in SENSED_FIELDS])
 
 
 def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHandles]:

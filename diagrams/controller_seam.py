@@ -23,6 +23,18 @@ or `controller: null` to coast). Each plug-in says, in one module:
 - optionally `make_plan(scenario, closed_loop)` -> `PlanOutput`, for `rpod plan`, and
   `campaign_table(rows)` and `campaign_figures(rows, out_dir)`, for `rpod report`;
 - `run_figures()` and `log_shapes`: its own figures of a run.
+
+Planning once at start (one pattern for every planner behind the seam). A controller that
+plans before it flies plans in an initialization event of its own system
+(`DeclareInitializationUnrestrictedUpdateEvent`, run by `Simulator.Initialize`), from the
+sensed bundle it reads at t = 0 (the estimate under `navigation: !Ekf`, never the scenario's
+truth), and keeps the plan in an abstract state of that system, never on the plug-in or the
+system object: `results`, `planned_end_s` and the scene read it back through the context, and
+the scene draws it from a `planned_path` output (rpod.systems.plan_at_start.PlannedPath,
+drawn by rpod.systems.scene.PlannedPathOverlay). `make_plan` calls the same planning function
+on `rpod.diagrams.builder.sensed_at_start(scenario)`, the bundle the truth gives at t = 0,
+so `rpod plan` writes the truth-fed closed loop's first plan bit for bit. Paper 000's soft
+capture (which then replans) and paper 003's planar approach (which then tracks) both do so.
 """
 
 from __future__ import annotations
@@ -268,8 +280,9 @@ class ControllerPlugin:
 
     make_plan = None
     """Optional: make_plan(scenario, closed_loop: bool) -> PlanOutput, the controller's plan
-    from the scenario's initial state without simulating, for `rpod plan`; `closed_loop` plans
-    what the closed loop's first plan is (its tightened margins), where that differs."""
+    from the scenario's initial state without simulating, for `rpod plan` (planned from
+    `sensed_at_start`: module docstring, "Planning once at start"); `closed_loop` plans what
+    the closed loop's first plan is (its tightened margins), where that differs."""
 
 
 _PLUGINS: dict[str, ControllerPlugin] = {}

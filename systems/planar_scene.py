@@ -3,8 +3,8 @@
 Owns: the outlines of the KOS pieces of each state in the target frame T (`keepout_outlines_T`),
 their extrusion into translucent prisms (`prism_mesh`), and `PlanarKeepOutScene`, a LeafSystem
 that draws both states' zones on a node that follows the target (X_LT) and shows the one the
-chaser's state selects, switching in the live view and in the recording; plus the planned path
-and the goal, fixed in L (`add_planar_scene`).
+chaser's state selects, switching in the live view and in the recording; plus the goal, fixed
+in L (`add_planar_scene`; the planned path is drawn by rpod.systems.scene.PlannedPathOverlay).
 Does not own: the KOS geometry and its switching rule (rpod.models.planar_approach, whose
 `KeepOutGeometry.state` decides the state drawn), the scene, its bodies or its Meshcat
 (rpod.systems.scene), or the recording (rpod.diagrams.recording).
@@ -47,8 +47,7 @@ OUTLINE_RGBA = {
     pa.STATE_I: Rgba(0.75, 0.10, 0.10, 1.0),
     pa.STATE_II: Rgba(0.05, 0.55, 0.20, 1.0),
 }
-PLAN_RGBA = Rgba(0.85, 0.10, 0.60, 1.0)
-GOAL_RGBA = Rgba(0.85, 0.10, 0.60, 1.0)
+GOAL_RGBA = Rgba(0.85, 0.10, 0.60, 1.0)  # the planned path's colour (rpod.systems.scene)
 
 
 def _arc(radius_x, radius_y, centre, start, stop, count):
@@ -213,13 +212,13 @@ def add_planar_scene(
     sensed: OutputPort,
     *,
     publish_period_s: float,
-    planned_path_L: np.ndarray | None = None,
     goal_L: np.ndarray | None = None,
     height_m: float = 0.3,
     name: str = "planar_kos_scene",
     prefix: str = "rpod",
 ) -> PlanarKeepOutScene:
-    """Adds the switching KOS on the target and draws the planned path and the goal in L.
+    """Adds the switching KOS on the target and draws the goal in L (the planned path is the
+    tracker's `planned_path`, drawn by rpod.systems.scene.PlannedPathOverlay once planned).
 
     For a plug-in's `add_scene_extras`; call it before `builder.Build()`.
 
@@ -229,7 +228,6 @@ def add_planar_scene(
         geometry: the KOS.
         sensed: the sensed bundle's output port (33).
         publish_period_s: update period [s]: the scene's (scenario.visualization).
-        planned_path_L: the planned positions (K, 2) in the plane z = 0 of L, drawn as a line.
         goal_L: x_goal (2,) in L, drawn as a small sphere.
         height_m: height of the drawn zones [m].
         name: the system's name in the diagram.
@@ -244,10 +242,6 @@ def add_planar_scene(
     )
     builder.Connect(sensed, system.GetInputPort(SENSED_PORT))
     meshcat.Delete(f"{prefix}/planar_plan")
-    if planned_path_L is not None and len(planned_path_L) >= 2:
-        path = np.asarray(planned_path_L, float)
-        line = np.column_stack([path, np.zeros(len(path))]).T
-        meshcat.SetLine(f"{prefix}/planar_plan/path", line, 2.0, PLAN_RGBA)
     if goal_L is not None:
         goal = np.asarray(goal_L, float)
         radius = 0.05 * geometry.chaser_side_m

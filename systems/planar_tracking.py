@@ -1,10 +1,11 @@
 """Planar trajectory tracking by PD on the pose and velocity errors (paper 003 Sec. IV-A).
 
 Owns: `PlanarTrackingConfig` (gains and period), `PlanarTrackingController` (the sampled law
-of paper 003 eqs. 11-13, output as a desired body wrench [tau_C; f_C]), and the small planar
+of paper 003 eqs. 11-13, output as a desired body wrench [tau_C; f_C]), `PlanarReference`
+(what it flies, given or planned once at start), and the small planar
 helpers it is made of (`planar_state_from_sensed`, `wrap_to_pi`, `planar_tracking_error`,
 `planar_pd_wrench`, `body_wrench_from_planar`, `critically_damped_gains`).
-Does not own: the reference (a planner's result, given as pydrake trajectories), the
+Does not own: the planner (its plug-in hands the tracker a `plan_at_start` callable), the
 allocation to thrusters (eq. 14, `rpod.systems.allocator.WrenchAllocator`, which solves it for
 the `planar_8` layout: its rows tau_x, tau_y, f_z are zero, so the 6-row least squares is
 eq. 14 on (tau_z, f_x, f_y), with rpod's minimum-fuel tie-break among the optimal duties,
@@ -62,11 +63,13 @@ import dataclasses
 import math
 
 import numpy as np
+from pydrake.common.value import Value
 from pydrake.systems.framework import Context, LeafSystem, State
 from pydrake.trajectories import PiecewisePolynomial
 
 from rpod.models.config import ConfigError
 from rpod.models.frames import rotation_from_wxyz
+from rpod.systems.plan_at_start import PlannedPath, declare_planned_path_output
 from rpod.systems.sensed import Sensed, declare_sensed_input
 
 DEFAULT_CHASER_MASS_KG = 10.0
@@ -219,8 +222,70 @@ def body_wrench_from_planar(wrench_L: np.ndarray, theta: float) -> np.ndarray:
     return np.array([0.0, 0.0, tau, c * f_x + s * f_y, -s * f_x + c * f_y, 0.0])  # eq. 13
 
 
+@dataclasses.dataclass(frozen=True)
+class PlanarReference:
+    """What the tracker flies: a reference, its feed-forward and release, and the plan behind.
+
+    Attributes:
+        state: x_ref(t), 6 x 1: [x, y, theta, v_x, v_y, omega] in the plane of L (theta need
+            not be wrapped; a planner's continuous heading is fine).
+        wrench_L: Optional feed-forward [F_x, F_y, tau](t), 3 x 1, in L (None: none, as in
+            paper 003).
+        release_time_s: From this time on the tracker commands no wrench (the chaser is
+            released and coasts); None: it tracks to the end.
+        path: The planned positions, for the ``planned_path`` output (index 0: none drawn).
+        plan: Whatever the planner made it from (read back by its plug-in; not the tracker's).
+    """
+
+    state: PiecewisePolynomial
+    wrench_L: PiecewisePolynomial | None = None
+    release_time_s: float | None = None
+    path: PlannedPath = dataclasses.field(default_factory=PlannedPath)
+    plan: object = None
+
+    def validate(self) -> None:
+        """ValueError on a bad shape or release time."""
+        state, wrench = self.state, self.wrench_L
+        if (state.rows(), state.cols()) != (6, 1):
+            raise ValueError(
+                "reference_state must be 6 x 1 [x, y, theta, v_x, v_y, omega], got "
+                f"{state.rows()} x {state.cols()}"
+            )
+        if wrench is not None and (wrench.rows(), wrench.cols()) != (3, 1):
+            raise ValueError(
+                f"reference_wrench_L must be 3 x 1 [F_x, F_y, tau], got {wrench.rows()} x "
+                f"{wrench.cols()}"
+            )
+        release = self.release_time_s
+        if release is not None and not math.isfinite(release):
+            raise ValueError(f"release_time_s must be finite or None, got {release!r}")
+
+    def at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """(x_ref (6), feed-forward [F_x, F_y, tau] in L (3)) at time t (module docstring)."""
+        trajectory = self.state
+        start, end = trajectory.start_time(), trajectory.end_time()
+        x_ref = trajectory.value(t).reshape(6)
+        feedforward = np.zeros(3)
+        if t < start or t > end:  # before or after the reference: its end pose, at rest
+            x_ref[3:6] = 0.0
+        elif self.wrench_L is not None:
+            wrench = self.wrench_L
+            if wrench.start_time() <= t <= wrench.end_time():
+                feedforward = wrench.value(t).reshape(3)
+        return x_ref, feedforward
+
+    def __deepcopy__(self, memo):
+        """Itself: never changed in place (Drake clones abstract state by deep copy)."""
+        return self
+
+
 class PlanarTrackingController(LeafSystem):
     """Sampled planar PD tracker of a reference trajectory (module docstring), outputs held.
+
+    The reference is given, or planned once at start: `plan_at_start(sensed)` is called in
+    the initialization event with the bundle read at t = 0 and returns the `PlanarReference`
+    (rpod.diagrams.controller_seam, "Planning once at start"); either way it is held in an
+    abstract state (`reference(context)`).
 
     Input port:
         sensed (33): the sensed bundle (rpod.systems.sensed).
@@ -230,55 +295,50 @@ class PlanarTrackingController(LeafSystem):
         tracking_error (6): e of eq. 11, heading wrapped.
         reference_state (6): x_ref at the sample (at rest outside the reference's span).
         planar_state (6): the sensed x = [x, y, theta, v_x, v_y, omega] at the sample.
-    Discrete state (27): the five outputs above, in that order.
+        planned_path (abstract): the reference's `PlannedPath` (rpod.systems.plan_at_start).
+    Discrete state (27): the five vector outputs above, in that order.
     """
 
     def __init__(
         self,
         config: PlanarTrackingConfig,
-        reference_state: PiecewisePolynomial,
+        reference_state: PiecewisePolynomial | None = None,
         reference_wrench_L: PiecewisePolynomial | None = None,
         release_time_s: float | None = None,
+        *,
+        plan_at_start=None,
     ):
         """Builds the tracker.
 
         Args:
             config: Gains and period (validated here).
-            reference_state: x_ref(t), 6 x 1: [x, y, theta, v_x, v_y, omega] in the plane of L
-                (theta need not be wrapped; a planner's continuous heading is fine).
-            reference_wrench_L: Optional feed-forward [F_x, F_y, tau](t), 3 x 1, in L (None:
-                none, as in paper 003).
-            release_time_s: From this time on the tracker commands no wrench (the chaser is
-                released and coasts); None: it tracks to the end.
+            reference_state, reference_wrench_L, release_time_s: a given reference
+                (`PlanarReference`'s state, wrench_L and release_time_s).
+            plan_at_start: Or a callable (Sensed) -> PlanarReference, called once at t = 0
+                (then reference_state must be None).
 
         Raises:
-            ValueError: On a bad config or reference shape.
+            ValueError: On a bad config or reference shape, or both or neither reference given.
         """
         super().__init__()
         config.validate()
-        if (reference_state.rows(), reference_state.cols()) != (6, 1):
-            raise ValueError(
-                "reference_state must be 6 x 1 [x, y, theta, v_x, v_y, omega], got "
-                f"{reference_state.rows()} x {reference_state.cols()}"
-            )
-        if reference_wrench_L is not None and (
-            (reference_wrench_L.rows(), reference_wrench_L.cols()) != (3, 1)
-        ):
-            raise ValueError(
-                "reference_wrench_L must be 3 x 1 [F_x, F_y, tau], got "
-                f"{reference_wrench_L.rows()} x {reference_wrench_L.cols()}"
-            )
-        if release_time_s is not None and not math.isfinite(release_time_s):
-            raise ValueError(f"release_time_s must be finite or None, got {release_time_s!r}")
+        if (reference_state is None) == (plan_at_start is None):
+            raise ValueError("give either reference_state or plan_at_start")
+        given = PlanarReference(
+            reference_state if reference_state is not None else _AT_REST,
+            reference_wrench_L,
+            release_time_s,
+        )
+        given.validate()
         self._config = config
-        self._release_time_s = release_time_s
-        self._reference_state = reference_state
-        self._reference_wrench = reference_wrench_L
+        self._plan_at_start = plan_at_start
 
         self._sensed_port = declare_sensed_input(self)
         self._held_index = self.DeclareDiscreteState(27)
+        self._reference_index = self.DeclareAbstractState(Value[object](given))
+        self._path_index = declare_planned_path_output(self)
         self.DeclarePeriodicUnrestrictedUpdateEvent(config.control_period_s, 0.0, self._update)
-        self.DeclareInitializationUnrestrictedUpdateEvent(self._update)  # valid output at t=0
+        self.DeclareInitializationUnrestrictedUpdateEvent(self._initialize)
         held = {self.discrete_state_ticket(self._held_index)}
         for name, start, size in (
             ("body_wrench_desired", 0, 6),
@@ -301,30 +361,37 @@ class PlanarTrackingController(LeafSystem):
         """The gains and period."""
         return self._config
 
-    def reference_at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
-        """(x_ref (6), feed-forward [F_x, F_y, tau] in L (3)) at time t (module docstring)."""
-        trajectory = self._reference_state
-        start, end = trajectory.start_time(), trajectory.end_time()
-        x_ref = trajectory.value(t).reshape(6)
-        feedforward = np.zeros(3)
-        if t < start or t > end:  # before or after the reference: its end pose, at rest
-            x_ref[3:6] = 0.0
-        elif self._reference_wrench is not None:
-            wrench = self._reference_wrench
-            if wrench.start_time() <= t <= wrench.end_time():
-                feedforward = wrench.value(t).reshape(3)
-        return x_ref, feedforward
+    def reference(self, context: Context) -> PlanarReference:
+        """The reference flown (planned at start, or the one given)."""
+        return context.get_abstract_state(self._reference_index).get_value()
+
+    def _initialize(self, context: Context, state: State) -> None:
+        """Plans (when asked to), then makes the outputs valid at t = 0."""
+        reference = self.reference(context)
+        if self._plan_at_start is not None:
+            reference = self._plan_at_start(Sensed.from_vector(self._sensed_port.Eval(context)))
+            reference.validate()
+            state.get_mutable_abstract_state(self._reference_index).set_value(reference)
+            state.get_mutable_abstract_state(self._path_index).set_value(reference.path)
+        self._hold(context, state, reference)
 
     def _update(self, context: Context, state: State) -> None:
+        self._hold(context, state, self.reference(context))
+
+    def _hold(self, context: Context, state: State, reference: PlanarReference) -> None:
         sensed = Sensed.from_vector(self._sensed_port.Eval(context))
         x = planar_state_from_sensed(sensed)
-        x_ref, feedforward = self.reference_at(context.get_time())
+        x_ref, feedforward = reference.at(context.get_time())
         e = planar_tracking_error(x_ref, x)  # eq. 11
         wrench_L = planar_pd_wrench(e, self._config) + feedforward  # eq. 12 (+ feed-forward)
-        release = self._release_time_s
+        release = reference.release_time_s
         if release is not None and context.get_time() >= release - 1e-9:
             wrench_L = np.zeros(3)  # released: the thrusters stay off
         body_wrench = body_wrench_from_planar(wrench_L, x[2])  # eq. 13
         state.get_mutable_discrete_state(self._held_index).set_value(
             np.concatenate([body_wrench, wrench_L, e, x_ref, x])
         )
+
+
+# The placeholder reference of a tracker that plans at start (replaced before any output).
+_AT_REST = PiecewisePolynomial(np.zeros((6, 1)))

@@ -103,7 +103,7 @@ import logging
 import math
 
 import numpy as np
-from pydrake.common.value import AbstractValue, Value
+from pydrake.common.value import Value
 from pydrake.math import RotationMatrix
 from pydrake.systems.framework import LeafSystem
 
@@ -117,9 +117,10 @@ from rpod.models.shapes import (
     soft_capture_chaser_hull,
     soft_capture_target_hull,
 )
-from rpod.planners.checked_plan import predict_plan_check
+from rpod.planners.checked_plan import CheckedPlan, predict_plan_check
 from rpod.planners.pointing import min_rotation
 from rpod.planners.soft_capture import PlanStatus, SoftCaptureConfig, SoftCapturePlanner
+from rpod.systems.plan_at_start import PlannedPath, declare_planned_path_output
 from rpod.systems.sensed import Sensed, declare_sensed_input
 
 # Controller modes (the ``controller_mode`` output, logged; MODES[code] is the name).
@@ -252,23 +253,39 @@ def _is_multiple(value: float, period: float) -> bool:
     return ratio >= 1.0 - 1e-9 and abs(ratio - round(ratio)) < 1e-9 * max(1.0, ratio)
 
 
-@dataclasses.dataclass(frozen=True)
-class PlannedPath:
-    """The active plan's knots, for drawing (the ``planned_path`` output).
+def plan_from_sensed(
+    planner: SoftCapturePlanner,
+    target_inertia,
+    sensed: Sensed,
+    t0_s: float = 0.0,
+    *,
+    horizons: list[int] | None = None,
+    check_unsuccessful: bool = False,
+) -> CheckedPlan:
+    """Predicts, plans and checks from a sensed bundle (rpod.planners.checked_plan): the call
+    the controller makes at every plan, and `rpod plan` on the bundle at t = 0
+    (rpod.diagrams.controller_seam, "Planning once at start").
 
-    Attributes:
-        index: 0 before any plan; then 1, 2, ... for each accepted plan.
-        t0_s: Simulated time of the plan's first knot [s].
-        p_LC_L: Planned chaser positions at the knots (N, 3) in L [m].
+    Args:
+        planner: the planner (its config and hulls).
+        target_inertia: (3, 3) in T [kg m^2], for the tumble's prediction.
+        sensed: what the controller reads at t0_s (rpod.systems.sensed).
+        t0_s: the plan's start [s].
+        horizons, check_unsuccessful: as `predict_plan_check`'s.
     """
-
-    index: int = 0
-    t0_s: float = 0.0
-    p_LC_L: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 3)))
-
-    def __deepcopy__(self, memo):
-        """Itself: never changed in place (see ``_Memory.__deepcopy__``)."""
-        return self
+    R_IL = rotation_from_wxyz(sensed.q_IL)
+    R_LT = R_IL.T @ rotation_from_wxyz(sensed.q_IT)
+    return predict_plan_check(
+        planner,
+        sensed.relative_state_L,
+        RotationMatrix(R_LT).ToQuaternion().wxyz(),
+        sensed.w_IT_T,
+        target_inertia,
+        t0_s=t0_s,
+        R_LC0=R_IL.T @ rotation_from_wxyz(sensed.q_IC),
+        horizons=horizons,
+        check_unsuccessful=check_unsuccessful,
+    )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -353,7 +370,7 @@ class SoftCaptureController(LeafSystem):
         # Held outputs: [wrench (6), reference (3), feed-forward (3), mode (1), status (1)].
         self._held = self.DeclareDiscreteState(14)
         self._memory = self.DeclareAbstractState(Value[object](_Memory()))
-        self._path = self.DeclareAbstractState(Value[object](PlannedPath()))
+        self._path = declare_planned_path_output(self)  # the active plan's knots
         self.DeclarePeriodicUnrestrictedUpdateEvent(config.control_period_s, 0.0, self._update)
         self.DeclareInitializationUnrestrictedUpdateEvent(self._update)  # plan at t0
         xd = {self.discrete_state_ticket(self._held)}
@@ -372,14 +389,6 @@ class SoftCaptureController(LeafSystem):
                 ),
                 xd,
             )
-        self.DeclareAbstractOutputPort(
-            "planned_path",
-            lambda: AbstractValue.Make(PlannedPath()),
-            lambda context, output: output.set_value(
-                context.get_abstract_state(self._path).get_value()
-            ),
-            {self.abstract_state_ticket(self._path)},
-        )
 
     @property
     def config(self) -> SoftCaptureControllerConfig:
@@ -416,23 +425,14 @@ class SoftCaptureController(LeafSystem):
     # ------------------------------------------------------------------------------------------
     # Planning
 
-    def _predict_and_plan(self, t, x0, R_LT, w_IT_T, R_LC, horizons):
+    def _predict_and_plan(self, t, sensed: Sensed, horizons):
         """(plan or None, record fields) -- never raises on a bad measurement.
 
-        The one predict-plan-check path (rpod.planners.checked_plan), as `rpod plan` uses it:
-        a plan the planner calls a success is checked (module docstring, "Plan check"); when
-        the check rejects it, the fields say status "check_failed" and name the violations.
+        The one predict-plan-check path (`plan_from_sensed`), as `rpod plan` uses it: a plan
+        the planner calls a success is checked (module docstring, "Plan check"); when the check
+        rejects it, the fields say status "check_failed" and name the violations.
         """
-        result = predict_plan_check(
-            self._planner,
-            x0,
-            RotationMatrix(R_LT).ToQuaternion().wxyz(),
-            w_IT_T,
-            self._J_T,
-            t0_s=t,
-            R_LC0=R_LC,
-            horizons=horizons,
-        )
+        result = plan_from_sensed(self._planner, self._J_T, sensed, t, horizons=horizons)
         plan = result.plan
         fields = {
             "status": result.status.value,
@@ -465,7 +465,7 @@ class SoftCaptureController(LeafSystem):
             )
         return plan, fields
 
-    def _plan(self, memory: _Memory, t, kind, x0, R_LT, w_IT_T, R_LC) -> _Memory:
+    def _plan(self, memory: _Memory, t, kind, sensed: Sensed) -> _Memory:
         """Calls the planner; returns the memory with the record and, on success, the plan.
 
         Accepted only when the planner succeeded and the plan check passed; a rejected plan is
@@ -477,7 +477,7 @@ class SoftCaptureController(LeafSystem):
             active = memory.plan
             t_final = active.t0_s + (active.N - 1) * self._dt
             horizons = [round((t_final - t) / self._dt) + 1]  # same final time
-        plan, fields = self._predict_and_plan(t, x0, R_LT, w_IT_T, R_LC, horizons)
+        plan, fields = self._predict_and_plan(t, sensed, horizons)
         accepted = plan is not None and plan.success and fields["check_passed"]
         record = {
             "t_s": float(t),
@@ -558,14 +558,14 @@ class SoftCaptureController(LeafSystem):
         memory = context.get_abstract_state(self._memory).get_value()
         previous_index = memory.plan.index if memory.plan is not None else 0
         if not memory.attempted:
-            memory = self._plan(memory, t, "initial", relative, R_LT, w_IT_T, R_LC)
+            memory = self._plan(memory, t, "initial", sensed)
         elif memory.plan is None and t >= memory.next_retry_s - _TIME_TOLERANCE_S:
-            memory = self._plan(memory, t, "retry", relative, R_LT, w_IT_T, R_LC)
+            memory = self._plan(memory, t, "retry", sensed)
         elif memory.plan is not None and t >= memory.plan.next_replan_s - _TIME_TOLERANCE_S:
             active = memory.plan
             remaining = active.N - round((t - active.t0_s) / self._dt)
             if remaining >= cfg.min_replan_knots:
-                memory = self._plan(memory, t, "replan", relative, R_LT, w_IT_T, R_LC)
+                memory = self._plan(memory, t, "replan", sensed)
             else:
                 memory = dataclasses.replace(
                     memory, plan=dataclasses.replace(active, next_replan_s=math.inf)

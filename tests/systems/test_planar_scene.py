@@ -90,7 +90,6 @@ def _simulate(meshcat, duration_s=10.0, record=False, heading_error_rad=0.0):
         GEOMETRY,
         source.get_output_port(),
         publish_period_s=PERIOD_S,
-        planned_path_L=np.array([[1.0, 0.0], [0.5, 0.2], [0.36, 0.0]]),
         goal_L=np.array([0.36, 0.0]),
     )
     diagram = builder.Build()
@@ -189,7 +188,6 @@ def test_a_real_meshcat_holds_every_path():
         "/drake/rpod/planar_kos/target/state_1/piece_0",
         "/drake/rpod/planar_kos/target/state_1/outline_2",
         "/drake/rpod/planar_kos/target/state_2/piece_3",
-        "/drake/rpod/planar_plan/path",
         "/drake/rpod/planar_plan/goal",
     ):
         assert meshcat.HasPath(path), path

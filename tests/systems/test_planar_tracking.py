@@ -18,7 +18,9 @@ from pydrake.trajectories import PiecewisePolynomial
 
 from rpod.models.thrusters import planar_8, wrench_matrix
 from rpod.systems.allocator import WrenchAllocator
+from rpod.systems.plan_at_start import PlannedPath
 from rpod.systems.planar_tracking import (
+    PlanarReference,
     PlanarTrackingConfig,
     PlanarTrackingController,
     body_wrench_from_planar,
@@ -189,6 +191,41 @@ def test_a_released_tracker_commands_nothing_from_the_release_on():
         assert out["tracking_error"][0] == pytest.approx(0.5)  # still measured
     with pytest.raises(ValueError, match="release_time_s"):
         PlanarTrackingController(GAINS, reference, release_time_s=math.nan)
+
+
+def test_a_tracker_that_plans_at_start_plans_once_from_what_it_senses_at_t0():
+    calls = []
+    path = PlannedPath(1, 0.0, np.array([[0.2, 0.0, 0.0], [0.5, 0.0, 0.0]]))
+
+    def plan_at_start(sensed):
+        calls.append(planar_state_from_sensed(sensed))
+        x_goal = planar_state_from_sensed(sensed) + [0.5, 0.0, 0.0, 0.0, 0.0, 0.0]
+        return PlanarReference(_constant(x_goal), path=path, plan="the plan")
+
+    controller = PlanarTrackingController(GAINS, plan_at_start=plan_at_start)
+    context = controller.CreateDefaultContext()
+    start = [0.2, 0.0, 0.0, 0.0, 0.0, 0.0]
+    controller.GetInputPort("sensed").FixValue(context, _sensed(start))
+    simulator = Simulator(controller, context)
+    simulator.Initialize()
+    assert len(calls) == 1
+    np.testing.assert_array_equal(calls[0], start)
+    reference = controller.reference(context)
+    assert reference.plan == "the plan"
+    assert controller.GetOutputPort("planned_path").Eval(context) is path
+    wrench = controller.GetOutputPort("planar_wrench_L").Eval(context)
+    assert wrench[0] == pytest.approx(GAINS.position_kp_N_per_m * 0.5)  # the planned reference
+    # The periodic updates fly the same reference and plan no more.
+    controller.GetInputPort("sensed").FixValue(context, _sensed([0.3, 0, 0, 0, 0, 0]))
+    simulator.AdvanceTo(3.5 * T)
+    assert len(calls) == 1
+    assert controller.reference(context) is reference
+    wrench = controller.GetOutputPort("planar_wrench_L").Eval(context)
+    assert wrench[0] == pytest.approx(GAINS.position_kp_N_per_m * 0.4)
+    with pytest.raises(ValueError, match="either"):
+        PlanarTrackingController(GAINS)
+    with pytest.raises(ValueError, match="either"):
+        PlanarTrackingController(GAINS, _constant(start), plan_at_start=plan_at_start)
 
 
 def test_critically_damped_gains_put_a_double_pole_at_exp_minus_wn_t():

@@ -12,6 +12,7 @@ from pydrake.common.value import AbstractValue
 from pydrake.geometry import Box, Convex, SceneGraph
 
 from rpod.models.shapes import soft_capture_chaser_hull, soft_capture_target_hull
+from rpod.systems.plan_at_start import PlannedPath
 from rpod.systems.scene import (
     PlannedPathOverlay,
     RendezvousScene,
@@ -19,7 +20,6 @@ from rpod.systems.scene import (
     SceneGeometry,
     convex_hull_obj,
 )
-from rpod.systems.soft_capture_controller import PlannedPath
 
 
 def _triangles(obj: str) -> np.ndarray:

@@ -1,17 +1,20 @@
-"""Paper 003's plan, made when the diagram is built, and the reference flown from it.
+"""Paper 003's plan, made once at start, and the reference flown from it.
 
-Owns: `plan_scenario` (the plan from the scenario's initial state, no simulation: the same call
-the closed loop makes, with `check_plan` on a success) and `make_run`, which plans and builds
-the tracker's reference into a `PlanarApproachRun` (the plug-in keeps it in its wiring).
+Owns: `plan_scenario` (the plan from what the controller senses at t = 0, no simulation: the
+same call the closed loop makes, with `check_plan` on a success) and `make_run`, which plans
+and builds the tracker's reference into a `PlanarApproachRun` (the tracker holds it:
+`PlanarApproachRun.to_fly`).
 Does not own: the planner and its checker (rpod.planners.planar_approach,
 rpod.planners.planar_approach_check) or the references' shapes (reference.py).
 
-When it plans. Once, in `add_to_diagram`, from the scenario's initial state (the same call as
-`plan_scenario`); the plan's wall time is in the summary (`planar_plan_solve_time_s`), not in
-the run's wall time. A plan that is not a success is a status, never an exception: the
-tracker then holds the chaser's start pose (position and heading at rest), the run goes on
-(with `stop.at_plan_end` it ends `stop.hold_s` after t = 0) and the mission fails with the
-planner's own word.
+When it plans. Once, at t = 0, in the tracker's initialization event, from the sensed bundle
+it reads then (rpod.diagrams.controller_seam, "Planning once at start": the estimate under
+`navigation: !Ekf`; under `!Truth` the scenario's start, bit for bit); `rpod plan` makes the
+same call on the truth's bundle at t = 0. The plan's wall time is in the summary
+(`planar_plan_solve_time_s`) and, as soft capture's, in the run's wall time. A plan that is
+not a success is a status, never an exception: the tracker then holds the chaser's start pose
+(position and heading at rest), the run goes on (with `stop.at_plan_end` it ends
+`stop.hold_s` after t = 0) and the mission fails with the planner's own word.
 """
 
 import copy
@@ -21,11 +24,9 @@ import math
 import numpy as np
 from pydrake.trajectories import PiecewisePolynomial
 
+from rpod.diagrams.builder import sensed_at_start
 from rpod.diagrams.controllers.planar_approach.config import HOLD_FORCE_SHARE
-from rpod.diagrams.controllers.planar_approach.problem import (
-    initial_planar_state,
-    planner_config,
-)
+from rpod.diagrams.controllers.planar_approach.problem import PlanarStart, planner_config
 from rpod.diagrams.controllers.planar_approach.reference import (
     co_rotating_hold,
     face_aligned_reference,
@@ -33,11 +34,14 @@ from rpod.diagrams.controllers.planar_approach.reference import (
 )
 from rpod.planners.planar_approach import PlanarApproachConfig, PlanarPlan, plan_approach
 from rpod.planners.planar_approach_check import check_plan
+from rpod.systems.plan_at_start import PlannedPath
+from rpod.systems.planar_tracking import PlanarReference
+from rpod.systems.sensed import Sensed
 
 
 @dataclasses.dataclass
 class PlanarApproachRun:
-    """What one run plans and flies, kept in the plug-in's wiring (`PlanarWiring.run`).
+    """What one run plans and flies, held by the tracker (`to_fly`), read back by the plug-in.
 
     Attributes:
         config: The planner's full config (settings and derived problem data).
@@ -68,19 +72,35 @@ class PlanarApproachRun:
         """The planned arrival T (nan without a plan)."""
         return float(self.plan.duration_s) if self.plan.flyable else math.nan
 
+    def to_fly(self) -> PlanarReference:
+        """The tracker's reference, its feed-forward and release, the planned path (drawn)
+        and this run (read back by the plug-in: `PlanarTrackingController.reference`)."""
+        path = PlannedPath()
+        if self.plan.flyable:
+            knots = self.plan.x_knots[:, :2]
+            path = PlannedPath(1, 0.0, np.column_stack([knots, np.zeros(len(knots))]))
+        return PlanarReference(
+            self.reference, self.feedforward, self.release_time_s, path=path, plan=self
+        )
 
-def plan_scenario(scenario) -> tuple[PlanarApproachConfig, np.ndarray, PlanarPlan, dict | None]:
-    """(planner config, x0, plan, check report or None): the plan from the scenario's initial
-    state, no simulation (what the closed loop plans; check_plan on a success)."""
-    config = planner_config(scenario)
-    x0 = initial_planar_state(scenario)
-    plan = plan_approach(config, x0)
-    return config, x0, plan, check_plan(plan, config) if plan.flyable else None
+
+def plan_scenario(
+    scenario, start: PlanarStart | None = None
+) -> tuple[PlanarApproachConfig, np.ndarray, PlanarPlan, dict | None]:
+    """(planner config, x0, plan, check report or None): the plan from `start`, what the
+    controller sensed at t = 0 (None: the bundle the truth gives then, `sensed_at_start`: what
+    `rpod plan` plans from), no simulation; check_plan on a success."""
+    if start is None:
+        start = PlanarStart.from_sensed(Sensed.from_vector(sensed_at_start(scenario)))
+    config = planner_config(scenario, start)
+    plan = plan_approach(config, start.x0)
+    return config, start.x0, plan, check_plan(plan, config) if plan.flyable else None
 
 
-def make_run(scenario) -> PlanarApproachRun:
-    """Plans and builds the reference (module docstring: after the plan, on failure)."""
-    config, x0, plan, check = plan_scenario(scenario)
+def make_run(scenario, start: PlanarStart | None = None) -> PlanarApproachRun:
+    """Plans from `start` (as `plan_scenario`) and builds the reference (module docstring:
+    after the plan, on failure)."""
+    config, x0, plan, check = plan_scenario(scenario, start)
     block = scenario.controller
     feedforward = None
     if not plan.flyable:  # hold the start pose, at rest

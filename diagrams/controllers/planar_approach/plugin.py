@@ -1,9 +1,9 @@
 """Paper 003's planar approach as a plug-in: how it is checked, planned, wired, drawn, judged.
 
 Owns: `PlanarApproachPlugin`: the checks that need the scenario (free space, planar_8, squares,
-a planar start and a flat spin, the planner's full config), the plan made when the diagram is
-built (planning.py) and kept in the wiring (`PlanarWiring.run`, read by the results, the
-planned end and the scene), how the tracker is wired (path 1: body wrench -> box-constrained
+a planar start and a flat spin, the planner's full config), the plan made once at start
+(planning.py, called in the tracker's initialization event; `flown_run` reads it back for the
+results and the planned end), how the tracker is wired (path 1: body wrench -> box-constrained
 allocation to 8 duties, eq. 14 -> PWM with N_PWM slots, Sec. IV-B -> `planar_8` thrusters), the
 keep-out scene extras and the hooks to its results (metrics.py, mission.py), figures
 (figures.py) and campaign tables and maps (tables.py, campaign_maps.py), the plotting ones
@@ -31,6 +31,7 @@ from rpod.diagrams.controllers.planar_approach.plan_file import plan_output
 from rpod.diagrams.controllers.planar_approach.planning import PlanarApproachRun, make_run
 from rpod.diagrams.controllers.planar_approach.problem import (
     PLANAR_TOLERANCE,
+    PlanarStart,
     is_planar_rotation,
     planner_config,
     tracking_config,
@@ -42,8 +43,8 @@ from rpod.diagrams.scenario import (
     initial_relative_state_L,
     target_rotation_in_lvlh,
 )
-from rpod.systems.planar_tracking import PlanarTrackingController
-from rpod.systems.sensed import SENSED_PORT
+from rpod.systems.planar_tracking import PlanarReference, PlanarTrackingController
+from rpod.systems.sensed import SENSED_PORT, Sensed
 
 LOGGED = {
     "planar_body_wrench_desired": "body_wrench_desired",
@@ -71,16 +72,20 @@ LOG_SHAPES = {  # the keys the figures read (figures.py documents each)
 
 @dataclasses.dataclass
 class PlanarWiring(ControllerWiring):
-    """The tracker's wiring, and what the plug-in keeps of the run it built.
+    """The tracker's wiring.
 
     Attributes:
-        run: The plan and the reference flown (planning.PlanarApproachRun), read by `results`,
-            `planned_end_s` and the scene.
         sensed: The sensed bundle's port (the scene's keep-out state reads the same bundle).
     """
 
-    run: PlanarApproachRun | None = None
     sensed: typing.Any = None
+
+
+def flown_run(wiring: PlanarWiring, context) -> PlanarApproachRun:
+    """The plan made at t = 0 and the reference flown (planning.PlanarApproachRun), held by the
+    tracker; `context` is the diagram's, after `Simulator.Initialize`."""
+    tracker = wiring.system
+    return tracker.reference(tracker.GetMyContextFromRoot(context)).plan
 
 
 class PlanarApproachPlugin(ControllerPlugin):
@@ -153,43 +158,49 @@ class PlanarApproachPlugin(ControllerPlugin):
             raise error.under("controller.planner") from None
 
     def add_to_diagram(self, builder, scenario, sensed) -> PlanarWiring:
-        run = make_run(scenario)
+        def plan_at_start(sensed_at_t0: Sensed) -> PlanarReference:  # planning.py
+            return make_run(scenario, PlanarStart.from_sensed(sensed_at_t0)).to_fly()
+
         tracker = builder.AddNamedSystem(
             self.system_name,
-            PlanarTrackingController(
-                tracking_config(scenario), run.reference, run.feedforward, run.release_time_s
-            ),
+            PlanarTrackingController(tracking_config(scenario), plan_at_start=plan_at_start),
         )
         builder.Connect(sensed, tracker.GetInputPort(SENSED_PORT))
         return PlanarWiring(
             tracker,
             tracker.GetOutputPort("body_wrench_desired"),
             {key: tracker.GetOutputPort(port) for key, port in LOGGED.items()},
-            run=run,
             sensed=sensed,
         )
 
     def planned_end_s(self, wiring, context) -> float | None:
         """The planned arrival T; 0 without a plan (the start pose is held from t = 0)."""
-        run = wiring.run
+        run = flown_run(wiring, context)
         return run.arrival_s if run.plan.flyable else 0.0
 
     def add_scene_extras(self, builder, meshcat, scenario, wiring, scene=None) -> None:
-        """The keep-out zone on the target frame, State I or II as the chaser's state says, and
-        the planned path (rpod.systems.planar_scene)."""
+        """The keep-out zone on the target frame, State I or II as the chaser's state says,
+        the goal (rpod.systems.planar_scene) and the plan's path once it is made
+        (rpod.systems.scene.PlannedPathOverlay)."""
         from rpod.systems.planar_scene import add_planar_scene  # only when drawing
+        from rpod.systems.scene import PlannedPathOverlay
 
-        run = wiring.run
-        path = run.plan.x_knots[:, :2] if run.plan.flyable else np.zeros((0, 2))
+        config = planner_config(scenario)  # the settings: the zone and the goal, no plan
         add_planar_scene(
             builder,
             meshcat,
-            run.config.geometry,
+            config.geometry,
             wiring.sensed,
             publish_period_s=scenario.visualization.publish_period_s,
-            planned_path_L=path,
-            goal_L=run.config.goal_position,
+            goal_L=config.goal_position,
             height_m=float(scenario.target.size_m[2]),
+        )
+        overlay = builder.AddNamedSystem(
+            "scene.planned_path",
+            PlannedPathOverlay(meshcat, scenario.visualization.publish_period_s, knot_size_m=0.01),
+        )
+        builder.Connect(
+            wiring.system.GetOutputPort("planned_path"), overlay.GetInputPort("planned_path")
         )
 
     @staticmethod
@@ -212,7 +223,7 @@ class PlanarApproachPlugin(ControllerPlugin):
 
     def results(self, scenario, wiring, context, log) -> ControllerResults:
         """metrics.py's arrays and summary, mission.py's outcome."""
-        run = wiring.run
+        run = flown_run(wiring, context)
         extra = planar_log(run, scenario, log)
         summary = planar_summary(run, scenario, log, extra)
         return ControllerResults(

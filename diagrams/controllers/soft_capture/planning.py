@@ -1,8 +1,8 @@
 """Paper 000's soft capture planned from the scenario's initial state, no simulation.
 
 Owns: `plan_scenario` and its `ScenarioPlan` (what `rpod plan` writes, through the plug-in's
-`make_plan`): the same predict-plan-check path as the closed loop's
-(rpod.planners.checked_plan).
+`make_plan`): the closed loop's own predict-plan-check call on the bundle it reads at t = 0
+(rpod.diagrams.controller_seam, "Planning once at start").
 Does not own: the planner (rpod.planners.soft_capture), the plan file (rpod.scenarios.plan) or
 its figures (plan_figures.py).
 """
@@ -11,16 +11,13 @@ import dataclasses
 
 import numpy as np
 
+from rpod.diagrams.builder import sensed_at_start
 from rpod.diagrams.controllers.soft_capture.problem import controller_config
-from rpod.diagrams.scenario import (
-    body_polytopes,
-    chaser_rotation_in_lvlh,
-    initial_relative_state_L,
-    target_rotation_in_lvlh,
-)
-from rpod.models.frames import quaternion_wxyz
-from rpod.planners.checked_plan import CheckedPlan, predict_plan_check
+from rpod.diagrams.scenario import body_polytopes
+from rpod.planners.checked_plan import CheckedPlan
 from rpod.planners.soft_capture import SoftCaptureConfig, SoftCapturePlanner
+from rpod.systems.sensed import Sensed
+from rpod.systems.soft_capture_controller import plan_from_sensed
 
 
 @dataclasses.dataclass
@@ -61,26 +58,24 @@ class ScenarioPlan:
 def plan_scenario(scenario, closed_loop: bool = False) -> ScenarioPlan:
     """Plans the scenario's soft capture from its initial state, no simulation (`rpod plan`).
 
-    The same predict-plan-check path as the closed loop's (rpod.planners.checked_plan), with
-    the planner's config as the scenario gives it (settings as written, problem data derived);
-    `closed_loop` plans what the closed loop's first plan is: eps_p, eps_v scaled by
-    plan_tolerance_fraction and the hulls by 1 + collision_margin. An unsuccessful plan of
-    N >= 2 knots is checked too (for diagnosis).
+    The closed loop's own call (`plan_from_sensed`) on the bundle the truth gives at t = 0
+    (`sensed_at_start`), with the planner's config as the scenario gives it (settings as
+    written, problem data derived); `closed_loop` plans with the closed loop's margins (eps_p,
+    eps_v scaled by plan_tolerance_fraction, the hulls by 1 + collision_margin): the truth-fed
+    closed loop's first plan, bit for bit. An unsuccessful plan of N >= 2 knots is checked too
+    (for diagnosis).
     """
     block = controller_config(scenario)
     config = block.planning_config() if closed_loop else block.planner
-    target = scenario.target
     chaser_hull, target_hull = body_polytopes(scenario)
     if closed_loop:
         chaser_hull, target_hull = block.planning_hulls(chaser_hull, target_hull)
-    x0 = np.concatenate(initial_relative_state_L(scenario))
-    checked = predict_plan_check(
+    sensed = Sensed.from_vector(sensed_at_start(scenario))
+    checked = plan_from_sensed(
         SoftCapturePlanner(config, chaser_hull, target_hull),
-        x0,
-        quaternion_wxyz(target_rotation_in_lvlh(scenario)),
-        np.radians(np.asarray(target.w_IT_T_deg_s, float)),
-        np.asarray(target.inertia_kg_m2, float),
-        R_LC0=chaser_rotation_in_lvlh(scenario),
+        np.asarray(scenario.target.inertia_kg_m2, float),
+        sensed,
         check_unsuccessful=True,
     )
+    x0 = sensed.relative_state_L.copy()
     return ScenarioPlan(checked, config, x0, chaser_hull, target_hull)
