@@ -175,8 +175,9 @@ def rotate_by_wxyz(q_wxyz, v) -> tuple[float, float, float]:
 
 def quaternion_product(a, b) -> np.ndarray:
     """a (x) b, Hamilton product, (w, x, y, z): R(a (x) b) = R(a) R(b)."""
-    aw, ax, ay, az = a
-    bw, bx, by, bz = b
+    # On Python floats: the same IEEE operations as on numpy scalars, several times cheaper.
+    aw, ax, ay, az = a.tolist() if isinstance(a, np.ndarray) else a
+    bw, bx, by, bz = b.tolist() if isinstance(b, np.ndarray) else b
     return np.array(
         [
             aw * bw - ax * bx - ay * by - az * bz,

@@ -26,6 +26,7 @@ Written with numpy: at 14 error states a library adds nothing, and none of those
 
 import dataclasses
 import functools
+import math
 
 import numpy as np
 
@@ -89,9 +90,9 @@ def euler_rate(w_T, k) -> np.ndarray:
 
 def euler_jacobians(w_T, k) -> tuple[np.ndarray, np.ndarray]:
     """(d euler_rate / d w_T (3, 3), d euler_rate / d k (3, 2))."""
-    wx, wy, wz = w_T
-    px, py = k
-    pz = z_parameter(k)
+    wx, wy, wz = np.asarray(w_T, dtype=float).tolist()  # Python floats: the same IEEE operations
+    px, py = np.asarray(k, dtype=float).tolist()
+    pz = z_parameter((px, py))
     A = np.array([[0.0, px * wz, px * wy], [py * wz, 0.0, py * wx], [pz * wy, pz * wx, 0.0]])
     d = (1.0 + px * py) ** 2
     B = np.array(
@@ -243,11 +244,11 @@ def excited_parameters(w_T, P, sigmas: float) -> np.ndarray:
     a rate estimate whose small components are noise would make the filter "learn" an inertia
     the motion says nothing about (the classic EKF inconsistency in unobservable directions),
     and converge to a wrong value with a small sigma."""
-    wx, wy, wz = w_T
-    var = np.diag(P)[W_SLICE]
+    wx, wy, wz = np.asarray(w_T, dtype=float).tolist()  # Python floats: the same IEEE operations
+    var = np.diag(P)[W_SLICE].tolist()
 
     def clear(a, b, var_a, var_b):
-        return abs(a * b) > sigmas * np.sqrt(b * b * var_a + a * a * var_b + var_a * var_b)
+        return abs(a * b) > sigmas * math.sqrt(b * b * var_a + a * a * var_b + var_a * var_b)
 
     by_x = clear(wy, wz, var[1], var[2])
     by_y = clear(wz, wx, var[2], var[0])
@@ -331,12 +332,19 @@ def propagate_nominal(
     out = state.copy()
     if t <= state.t:
         return out
+    _set_nominal(out, t, nominal_at(state, t, motion, a_L, max_step_s))
+    return out
+
+
+def nominal_at(
+    state: FilterState, t: float, motion, a_L=(0.0, 0.0, 0.0), max_step_s: float = 0.25
+) -> np.ndarray:
+    """`propagate_nominal`'s nominal vector (15) alone, for t > state.t: no state object made."""
     steps = max(1, int(np.ceil((t - state.t) / max_step_s - 1e-9)))
     x = nominal_vector(state)
     for _ in range(steps):
         x = _rk4_step(motion, x, a_L, (t - state.t) / steps)
-    _set_nominal(out, t, x)
-    return out
+    return x
 
 
 # ---------------------------------------------------------------------------------- measurement

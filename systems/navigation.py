@@ -450,17 +450,29 @@ class NavigationComputer:
             return np.full(SENSED_SIZE, np.nan)
         dt = t - memory.estimate.t
         state, target, q_IL, q_IC = memory.estimate, memory.target_I, memory.q_IL, memory.q_IC
+        out = np.empty(SENSED_SIZE)  # rpod.systems.sensed's layout, filled in place
         if dt > 0.0:  # read between events: at most half a second on
-            increments = self._thrust_since(memory, np.asarray(chaser_state_I), dt)
-            # One RK4 step: its error over 0.5 s at 10 deg/s of tumble is ~1e-6 rad.
-            motion = self.motion(memory.target_I)
-            state = self._carry(state, t, increments, motion, max_step_s=_OUTPUT_STEP_S)
+            dp_L, dv_L = self._thrust_since(memory, np.asarray(chaser_state_I), dt)
+            # One RK4 step: its error over 0.5 s at 10 deg/s of tumble is ~1e-6 rad. The
+            # nominal alone, as `_carry` carries it (no state object: this runs at every read).
+            x = rn.nominal_at(state, t, self.motion(memory.target_I), _ZERO, _OUTPUT_STEP_S)
+            out[0:3], out[3:6], out[13:17], out[17:20] = (
+                x[0:3] + dp_L,
+                x[3:6] + dv_L,
+                x[6:10],
+                x[10:13],
+            )
             target = _gravity_step(target, dt, self.gravity)
             q_IL = quaternion_product(q_IL, rotation_vector_quaternion(memory.w_IL_L * dt))
             q_IC = quaternion_product(q_IC, rotation_vector_quaternion(memory.w_IC_C * dt))
-        out = np.empty(SENSED_SIZE)  # rpod.systems.sensed's layout, filled in place
-        out[0:3], out[3:6], out[6:10], out[10:13] = state.p_LC_L, state.v_LC_L, q_IL, memory.w_IL_L
-        out[13:17], out[17:20] = state.q_IT, state.w_IT_T
+        else:
+            out[0:3], out[3:6], out[13:17], out[17:20] = (
+                state.p_LC_L,
+                state.v_LC_L,
+                state.q_IT,
+                state.w_IT_T,
+            )
+        out[6:10], out[10:13] = q_IL, memory.w_IL_L
         out[20:24], out[24:27], out[27:33] = q_IC, memory.w_IC_C, target
         return out
 
