@@ -31,7 +31,12 @@ class Ekf:
     update_period_s: the navigation's time grid: every sensor's period is a whole number of
         it, and a fix's latency is rounded up to it. The navigation works only at its events
         (a sample, a fix's arrival: rpod.systems.navigation), not at every tick.
-    lead_in_s: how long the sensors and the filter run before t = 0 (module docstring).
+    lead_in_s: how long the sensors and the filter run before t = 0 (rpod.systems.navigation):
+        60 s by default, the time a tumble of a few deg/s takes to show the filter its inertia
+        (at 20 s, the first default, paper 000's soft capture captured 45 of 50 sampled cases
+        on the estimate, at 60 s the 48 it captures with the planner given the true inertia:
+        benchmarks/results/navigation_inertia_oracle.md). Guidance takes over from an earlier
+        phase whose navigation has watched the target for minutes.
     noise_scale: every sensor's noise times this (0: perfect fixes; 3: three times the
         defaults). Outliers and dropouts keep their own probabilities.
     boresight_C: the pose sensor's boresight in C; empty: the capture axis
@@ -62,7 +67,7 @@ class Ekf:
     """
 
     update_period_s: float = positive(0.1, high=1.0)
-    lead_in_s: float = bounded(20.0, 0.0, 600.0)
+    lead_in_s: float = bounded(60.0, 0.0, 600.0)
     noise_scale: float = bounded(1.0, 0.0, 100.0)
     boresight_C: list[float] = bounded([], -1e3, 1e3)  # noqa: RUF009 (a field())
     gyro_window_s: float = positive(1.0, high=60.0)
