@@ -7,7 +7,7 @@ seeds); only `rpod.diagrams.builder.with_estimated_inertia` is bypassed, so the 
 the tumble with the truth's inertia (paper 000 eq. 27: principal axes ~39.5 deg off T's, which
 the filter's model assumes are T's). If the failures capture with it, the planner's inertia is
 what is missing. With the navigation's first 20 s lead-in they did (45/50 on the estimate,
-48/50 with the true inertia); at the 60 s lead-in now the default the estimate captures 48 and
+48/50 with the true inertia: this file's result at commit b2b540d); at the 60 s lead-in now the default the estimate captures 48 and
 the true inertia 47 (the committed result): the estimated inertia no longer limits it.
 
     python benchmarks/navigation_inertia_oracle.py   # ~10 min on 2 cores

@@ -34,9 +34,9 @@ class Ekf:
     lead_in_s: how long the sensors and the filter run before t = 0 (rpod.systems.navigation):
         60 s by default, the time a tumble of a few deg/s takes to show the filter its inertia
         (at 20 s, the first default, paper 000's soft capture captured 45 of 50 sampled cases
-        on the estimate and 48 with its planner given the true inertia; at 60 s it captures 48
-        on the estimate, and the true inertia adds none: 47,
-        benchmarks/results/navigation_inertia_oracle.md). Guidance takes over from an earlier
+        on the estimate and 48 with its planner given the true inertia, the oracle's result at
+        commit b2b540d; at 60 s it captures 48 on the estimate, and the true inertia adds none:
+        47, benchmarks/results/navigation_inertia_oracle.md). Guidance takes over from an earlier
         phase whose navigation has watched the target for minutes.
     noise_scale: every sensor's noise times this (0: perfect fixes; 3: three times the
         defaults). Outliers and dropouts keep their own probabilities.
