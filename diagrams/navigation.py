@@ -121,7 +121,7 @@ def run_lead_in(computer: NavigationComputer, coasting_truth) -> NavigationMemor
     memory = NavigationMemory()
     for k, sample in zip(events, samples):
         memory = computer.tick(memory, k, sample)
-    if memory.estimate is None:
+    if memory.shown(0.0) is None:
         used, _, unseen, _ = memory.counts
         raise ConfigError(
             "navigation.lead_in_s",
@@ -148,7 +148,7 @@ def with_estimated_inertia(scenario, navigation: RelativeNavigation):
     its magnitude the truth's trace (stated, not estimated: the torque-free tumble a planner
     predicts depends on the ratios only, and no pose sensor sees the mass). The truth and the
     verdict keep the scenario's own."""
-    estimate = navigation.start_memory.estimate
+    estimate = navigation.start_memory.shown(0.0).estimate
     ratios = rn.ratios_from_parameters(estimate.inertia_parameters)
     trace = float(np.trace(np.asarray(scenario.target.inertia_kg_m2, dtype=float)))
     diagonal = trace / (1.0 + ratios[0] + ratios[1]) * np.array([1.0, ratios[0], ratios[1]])

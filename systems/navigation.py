@@ -8,29 +8,31 @@ Does not own: the sensor and filter mathematics (rpod.models.pose_sensor, .chase
 .relative_navigation), the truth before t = 0 that the lead-in reads (rpod.diagrams.navigation
 integrates it), or the wiring (rpod.diagrams.builder).
 
-What the estimate is made of, every `update_period_s` (one tick):
+What the estimate is made of, at the sensors' samples (events, on a grid of `update_period_s`):
 - relative position, velocity, target attitude, rate and inertia parameters: the multiplicative
   EKF (rpod.models.relative_navigation) on the pose sensor's fixes. A fix taken at t arrives
-  `latency_s` later (at the first tick after), and the filter is updated at the fix's own time,
-  then carried to now. The chaser's thrust enters its process model as a known input, the
-  position and velocity increments an IMU's accelerometer gives over each tick
-  (`_thrust_since`); four fixes refused in a row reset the part of the filter that diverged
-  (rpod.models.relative_navigation.reset_diverged);
+  `latency_s` later (rounded up to the grid), and the filter is updated at the fix's own time.
+  The update is computed at the sample and shown from the arrival on (an `EstimateVersion`):
+  what a flight computer updating at the arrival would show, since the update uses nothing
+  later than the fix, without an event of its own at every arrival. The chaser's thrust enters
+  the process model as a known input, the position and velocity increments an IMU's
+  accelerometer gives between events (`_thrust_since`); four fixes refused in a row reset the
+  part of the filter that diverged (rpod.models.relative_navigation.reset_diverged);
 - the chaser's attitude: the last star-tracker fix carried by the gyro's rates (bias not
   estimated: 1 deg/h over the 0.2 s between fixes is 0.2 arcsec, below the tracker's 10); its
   rate: the gyro's mean over `gyro_window_s`;
 - the target's orbit: the chaser's GNSS fix less the relative estimate, carried between fixes
   by the truth's gravity model; LVLH (q_IL, w_IL_L) is that orbit's.
-Between ticks the output carries the last estimate to the instant it is read (RK4 on the
-nominal, plus the thrust's increments since the tick), so a controller sampled at a tick reads
-the estimate of that instant, from the fixes that had arrived before it.
+Between events the output carries the estimate of the last fix arrived to the instant it is read
+(RK4 on the nominal, plus the thrust's increments since the event), so a controller reads the
+estimate of that instant, from the fixes that had arrived before it.
 
 The filter starts from measurements only: the sensors run over `lead_in_s` before t = 0, on the
 truth integrated backwards from the scenario's start (the chaser coasting; every rpod scenario
 starts where guidance takes over from an earlier phase, whose navigation already ran).
 
 Random draws come from (the scenario's seed, the sensor, the tick), so a run is deterministic
-and one sensor's draws do not depend on another's.
+and one sensor's draws do not depend on another's (`TickDraws`).
 """
 
 from __future__ import annotations
@@ -82,6 +84,43 @@ _OUTPUT_STEP_S = 0.5  # the longest RK4 step of the estimate carried to a read
 _SIGMA_FLOOR_M, _SIGMA_FLOOR_RAD = 1e-3, 1e-3
 
 
+_BLOCK_TICKS = 256  # ticks whose draws one generator makes at once
+_NORMALS_PER_TICK = 9  # the most a sensor draws at one tick (the pose sensor)
+_UNIFORMS_PER_TICK = 2
+
+
+class TickDraws:
+    """One sensor's random numbers at one tick, served in order: the two np.random.Generator
+    methods the sensors call (`standard_normal`, `random`).
+
+    The numbers of (seed, sensor, tick) are a row of a block drawn by one generator for
+    _BLOCK_TICKS ticks at once, `np.random.default_rng((seed, sensor, tick // _BLOCK_TICKS))`:
+    a generator made per tick (its SeedSequence hashing, ~35 us) cost more than the sensors'
+    mathematics. A sensor draws at most _NORMALS_PER_TICK normals and _UNIFORMS_PER_TICK
+    uniforms a tick; one that asks for more is refused (ValueError), never given a reused number.
+    """
+
+    def __init__(self, normals: np.ndarray, uniforms: np.ndarray):
+        self._normals, self._uniforms = normals, uniforms
+        self._next_normal = self._next_uniform = 0
+
+    def standard_normal(self, size: int) -> np.ndarray:
+        """`size` standard normal numbers."""
+        start, self._next_normal = self._next_normal, self._next_normal + size
+        return self._take(self._normals, start, size)
+
+    def random(self, size: int) -> np.ndarray:
+        """`size` uniform numbers in [0, 1)."""
+        start, self._next_uniform = self._next_uniform, self._next_uniform + size
+        return self._take(self._uniforms, start, size)
+
+    @staticmethod
+    def _take(numbers: np.ndarray, start: int, size: int) -> np.ndarray:
+        if start + size > len(numbers):
+            raise ValueError(f"TickDraws: a sensor drew more than the {len(numbers)} per tick")
+        return numbers[start : start + size].copy()
+
+
 @dataclasses.dataclass(frozen=True)
 class TruthSample:
     """What the sensors see of the truth at one event: the true sensed bundle and the chaser's
@@ -92,17 +131,33 @@ class TruthSample:
 
 
 @dataclasses.dataclass(frozen=True)
+class EstimateVersion:
+    """The estimate after one fix, shown from the fix's arrival on.
+
+    arrives_s: when the fix arrives (its time plus the latency).
+    filter: the filter just after the fix, at the fix's time (its covariance the update's).
+    estimate: its nominal carried to the navigation's last event (the thrust included).
+    counts: (fixes used, rejected, filter restarts) with this fix.
+    nis: the fix's normalised innovation squared.
+    """
+
+    arrives_s: float
+    filter: rn.FilterState
+    estimate: rn.FilterState
+    counts: tuple
+    nis: float
+
+
+@dataclasses.dataclass(frozen=True)
 class NavigationMemory:
     """Everything the navigation holds between events. Never changed in place: each event makes a
     new one, so Drake's clones of a context may share it."""
 
     tick: int = -1  # the tick of the last event (its time: start_s + tick * period)
-    filter: rn.FilterState | None = None  # at the last fix used
     first_fix: rn.PoseMeasurement | None = None  # before the filter has started
-    pending: tuple = ()  # fixes taken, not yet arrived
-    segments: tuple = ()  # (t0, t1, (dp_L, dv_L)): the thrust's increments, event to event
-    estimate: rn.FilterState | None = None  # the filter carried to the last event
+    versions: tuple = ()  # EstimateVersion: the one shown at the last event, then those to come
     chaser_last: np.ndarray | None = None  # chaser_state_I at the last event (true)
+    gravity_last: tuple | None = None  # the gravity at chaser_last (what its IMU removes)
     gyro_bias: np.ndarray | None = None
     q_IC: np.ndarray | None = None  # the chaser's attitude estimate at the last event
     w_IC_C: np.ndarray | None = None  # the gyro's mean rate over gyro_readings
@@ -112,12 +167,27 @@ class NavigationMemory:
     R_IL: np.ndarray | None = None  # its LVLH frame at the last event
     q_IL: np.ndarray | None = None
     w_IL_L: np.ndarray | None = None
-    counts: tuple = (0, 0, 0, 0)  # fixes used, rejected, unseen; restarts
+    counts: tuple = (0, 0, 0, 0)  # fixes used, rejected, unseen; restarts (as taken, not shown)
     rejected_in_a_row: int = 0
-    last_nis: float = math.nan
 
     def __deepcopy__(self, memo):
         return self
+
+    def shown(self, t: float) -> EstimateVersion | None:
+        """The estimate shown at t (at or after the last event): that of the last fix arrived
+        by t; None before the first."""
+        index = _shown_index(self.versions, t)
+        return self.versions[index] if index >= 0 else None
+
+
+def _shown_index(versions, t: float) -> int:
+    """The index of the version shown at t in `versions` (ordered by arrival); -1 if none."""
+    index = -1
+    for i, version in enumerate(versions):
+        if version.arrives_s > t + _TIME_TOLERANCE_S:
+            break
+        index = i
+    return index
 
 
 class NavigationComputer:
@@ -133,10 +203,12 @@ class NavigationComputer:
 
     Time runs in ticks of `update_period_s` from the lead-in's start (tick 0, at `start_s`, a
     whole number of sensor cycles before t = 0, so that every schedule meets t = 0), but the
-    navigation only works at its events: a sensor's sample, or a pose fix's arrival
-    (`is_event`). In between, nothing is due: the output carries the estimate to the instant it
-    is read. Events, not a fixed clock, because every event ends an integrator step: at 10 Hz
-    they made a run of paper 004's MPC take five times its steps.
+    navigation only works at its events: a sensor's sample (`is_event`). In between, nothing is
+    due: the output carries the estimate to the instant it is read, and shows a fix's update
+    from its arrival on (`NavigationMemory.shown`). Events, not a fixed clock, because every
+    event ends an integrator step: at 10 Hz they made a run of paper 004's MPC take five times
+    its steps; an event at each fix's arrival too made hold_point's navigation cost half as much
+    again.
     """
 
     def __init__(
@@ -164,6 +236,7 @@ class NavigationComputer:
         lead_in_ticks = math.ceil(config.lead_in_s / self.period_s - 1e-9)
         self.start_s = -math.ceil(lead_in_ticks / cycle) * cycle * self.period_s
         self._orbit = (None, None)  # (the target orbit estimate, its TargetOrbit)
+        self._blocks = {}  # (sensor, block) -> (normals, uniforms): TickDraws' blocks
 
     def time_of(self, tick: int) -> float:
         """The time of a tick [s]."""
@@ -174,21 +247,28 @@ class NavigationComputer:
         return round((t - self.start_s) / self.period_s)
 
     def is_event(self, tick: int) -> bool:
-        """Whether the navigation works at this tick: a sensor samples or a fix arrives."""
-        pose = self.every["pose_sensor.rate_hz"]
-        return any(tick % every == 0 for every in self.every.values()) or (
-            (tick - self.latency_ticks) % pose == 0
-        )
+        """Whether the navigation works at this tick: a sensor samples."""
+        return any(tick % every == 0 for every in self.every.values())
 
     def event_schedule(self) -> list[tuple[float, float]]:
         """The events as (period [s], offset from t = 0 [s]) pairs, each once."""
-        pose = self.every["pose_sensor.rate_hz"]
-        pairs = {(every, 0) for every in self.every.values()}
-        pairs.add((pose, self.latency_ticks % pose))
-        return sorted((every * self.period_s, offset * self.period_s) for every, offset in pairs)
+        return sorted((every * self.period_s, 0.0) for every in set(self.every.values()))
 
-    def _rng(self, stream: int, tick: int) -> np.random.Generator:
-        return np.random.default_rng((self.seed, stream, tick))
+    def _rng(self, stream: int, tick: int) -> TickDraws:
+        """The draws of one sensor (stream) at one tick (`TickDraws`)."""
+        block, row = divmod(tick, _BLOCK_TICKS)
+        key = (stream, block)
+        numbers = self._blocks.get(key)
+        if numbers is None:
+            generator = np.random.default_rng((self.seed, stream, block))
+            numbers = (
+                generator.standard_normal((_BLOCK_TICKS, _NORMALS_PER_TICK)),
+                generator.random((_BLOCK_TICKS, _UNIFORMS_PER_TICK)),
+            )
+            if len(self._blocks) >= 16:  # a run's ticks only go forward: keep the latest
+                del self._blocks[next(iter(self._blocks))]
+            self._blocks[key] = numbers
+        return TickDraws(numbers[0][row], numbers[1][row])
 
     def _due(self, field: str, tick: int) -> bool:
         return tick % self.every[field] == 0
@@ -207,88 +287,65 @@ class NavigationComputer:
             self._orbit = (target_I, orbit)
         return orbit
 
-    def _advance(
-        self,
-        state: rn.FilterState,
-        t: float,
-        segments,
-        motion,
-        with_covariance: bool = True,
-    ) -> rn.FilterState:
-        """The filter carried to t (an event) through the thrust of `segments` (whole intervals
-        between events): the nominal interval by interval, unforced, plus each interval's
-        thrust increments; the covariance in one prediction (the thrust is a known input: the
-        covariance's growth depends on the tumble's nominal only, and one call with steps of
-        max_step_s costs a third of one call per interval). Without covariance, P is the
-        state's as it was (`covariance_at` carries it when it is read)."""
-        if t <= state.t + _TIME_TOLERANCE_S:
-            return state
-        s = self.settings
-        covariance = None
-        if with_covariance:
-            covariance = rn.predict(
-                state, t, motion, s.noise, _ZERO, s.max_step_s, s.excitation_sigmas
-            )
-        nominal = state
-        for t0, t1, increments in segments:
-            if t0 >= nominal.t - _TIME_TOLERANCE_S and t1 <= t + _TIME_TOLERANCE_S:
-                nominal = self._carry(nominal, t1, increments, motion)
-        if t > nominal.t + _TIME_TOLERANCE_S:
-            nominal = rn.propagate_nominal(nominal, t, motion, _ZERO, s.max_step_s)
-        if covariance is not None:
-            nominal.P = covariance.P
-        return nominal
-
     def _carry(
         self,
         state: rn.FilterState,
         t: float,
         increments,
         motion,
-        max_step_s: float | None = None,
     ) -> rn.FilterState:
         """The nominal carried to t unforced, plus the thrust's increments over the interval
-        (the orbital coupling of thrust within half a second, n dt ~ 5e-4 of it, is left out)."""
-        step = self.settings.max_step_s if max_step_s is None else max_step_s
-        out = rn.propagate_nominal(state, t, motion, _ZERO, step)
+        (`_thrust_since`)."""
+        out = rn.propagate_nominal(state, t, motion, _ZERO, self.settings.max_step_s)
         dp_L, dv_L = increments
         out.p_LC_L = out.p_LC_L + dp_L
         out.v_LC_L = out.v_LC_L + dv_L
         return out
 
-    def _use(self, memory: dict, fix: rn.PoseMeasurement) -> None:
-        """One arrived fix: starts the filter, or updates it at the fix's time."""
+    def _use(self, memory: dict, versions: list, fix: rn.PoseMeasurement, tick: int, motion):
+        """One fix taken at this event: starts the filter, or updates it at the fix's time, and
+        appends what it gives to `versions`, shown from the fix's arrival on."""
         used, rejected, unseen, restarts = memory["counts"]
-        if memory["filter"] is None:
+        arrives_s = self.time_of(tick + self.latency_ticks)
+        if not versions:
             if memory["first_fix"] is None:
                 memory["first_fix"] = fix
             else:
-                memory["filter"] = rn.initial_state(memory["first_fix"], fix, self.settings.prior)
+                state = rn.initial_state(memory["first_fix"], fix, self.settings.prior)
+                versions.append(
+                    EstimateVersion(
+                        arrives_s, state, state, (used + 1, rejected, restarts), math.nan
+                    )
+                )
             memory["counts"] = (used + 1, rejected, unseen, restarts)
             return
-        motion = self.motion(memory["target_I"])
-        state = self._advance(memory["filter"], fix.t, memory["segments"], motion)
-        result = rn.update(state, fix, self.gate, self.settings.excitation_sigmas)
-        memory["filter"] = result.state
-        memory["last_nis"] = result.nis
+        # The filter carried to the fix: its nominal is the last version's estimate (carried
+        # event by event through the thrust, a known input), its covariance predicted over
+        # the interval (whose growth does not depend on the thrust).
+        latest = versions[-1]
+        s = self.settings
+        covariance = rn.predict(
+            latest.filter, fix.t, motion, s.noise, _ZERO, s.max_step_s, s.excitation_sigmas
+        ).P
+        state = dataclasses.replace(latest.estimate, P=covariance)
+        result = rn.update(state, fix, self.gate, s.excitation_sigmas)
         in_a_row = 0 if result.accepted else memory["rejected_in_a_row"] + 1
         if in_a_row >= self.config.restart_after_rejections:
             # Not outliers: the filter has diverged (its model is wrong, or a manoeuvre it was
             # not told of). The part that diverged starts again from this fix, which it then
             # takes (rpod.models.relative_navigation.reset_diverged).
             period = 1.0 / self.pose.rate_hz
-            reset, _ = rn.reset_diverged(
-                state, fix, period, self.settings.prior, self.settings.gate_probability
-            )
-            result = rn.update(reset, fix, math.inf, self.settings.excitation_sigmas)
-            memory["filter"], in_a_row = result.state, 0
+            reset, _ = rn.reset_diverged(state, fix, period, s.prior, s.gate_probability)
+            result = rn.update(reset, fix, math.inf, s.excitation_sigmas)
+            in_a_row = 0
             restarts += 1
         memory["rejected_in_a_row"] = in_a_row
-        memory["counts"] = (
-            used + result.accepted,
-            rejected + (not result.accepted),
-            unseen,
-            restarts,
+        used, rejected = used + result.accepted, rejected + (not result.accepted)
+        memory["counts"] = (used, rejected, unseen, restarts)
+        versions.append(
+            EstimateVersion(
+                arrives_s, result.state, result.state, (used, rejected, restarts), result.nis
+            )
         )
 
     # --------------------------------------------------------------------------------- tick
@@ -305,13 +362,24 @@ class NavigationComputer:
         # The chaser's thrust since the last event, in L: its IMU's increments.
         increments = self._thrust_since(previous, truth.chaser_state_I, dt)
         memory["chaser_last"] = np.array(truth.chaser_state_I, dtype=float)
-        segments = tuple(memory["segments"])
-        if dt > 0.0:
-            segments += ((t_last, t, increments),)
-
+        memory["gravity_last"] = gravity_acceleration_xyz(
+            *memory["chaser_last"][:3].tolist(), self.gravity
+        )
         self._chaser_attitude(memory, previous, tick, sensed, dt)
 
-        # A pose fix taken now arrives latency_ticks later.
+        # Every estimate still shown or to come, carried to now through the thrust; those a
+        # fix arrived since has replaced are dropped.
+        motion = self.motion(previous.target_I)
+        versions = list(previous.versions)
+        shown = _shown_index(versions, t)
+        versions = versions[max(shown, 0) :]
+        if dt > 0.0:
+            versions = [
+                dataclasses.replace(v, estimate=self._carry(v.estimate, t, increments, motion))
+                for v in versions
+            ]
+
+        # A pose fix taken now: the filter updated at once, shown from its arrival.
         if self._due("pose_sensor.rate_hz", tick):
             R_LC = rotation_from_wxyz(sensed.q_IL).T @ rotation_from_wxyz(sensed.q_IC)
             fix, _ = self.pose.measure(
@@ -326,23 +394,8 @@ class NavigationComputer:
                     sigma_position_m=max(fix.sigma_position_m, _SIGMA_FLOOR_M),
                     sigma_attitude_rad=max(fix.sigma_attitude_rad, _SIGMA_FLOOR_RAD),
                 )
-                memory["pending"] = tuple(memory["pending"]) + ((tick + self.latency_ticks, fix),)
-        memory["segments"] = segments
-        arrived = [fix for due, fix in memory["pending"] if due <= tick]
-        memory["pending"] = tuple((due, fix) for due, fix in memory["pending"] if due > tick)
-        for fix in arrived:
-            self._use(memory, fix)
-
-        motion = self.motion(previous.target_I)
-        if memory["filter"] is not None:
-            start = memory["filter"].t - _TIME_TOLERANCE_S
-            memory["segments"] = tuple(s for s in segments if s[1] > start)
-            if arrived or previous.estimate is None:  # from the fix just used
-                memory["estimate"] = self._advance(
-                    memory["filter"], t, memory["segments"], motion, with_covariance=False
-                )
-            else:  # no new fix: the last event's nominal, carried on (`covariance_at`)
-                memory["estimate"] = self._carry(previous.estimate, t, increments, motion)
+                self._use(memory, versions, fix, tick, motion)
+        memory["versions"] = tuple(versions)
         self._target_orbit(memory, previous, tick, truth, dt)
         memory["tick"] = tick
         return NavigationMemory(**memory)
@@ -384,7 +437,8 @@ class NavigationComputer:
         target = previous.target_I
         if target is not None:
             target = _gravity_step(target, dt, self.gravity)
-        estimate = memory["estimate"]
+        shown = _shown_index(memory["versions"], self.time_of(tick))
+        estimate = memory["versions"][shown].estimate if shown >= 0 else None
         if estimate is not None and (self._due("gnss.rate_hz", tick) or target is None):
             p_IC, v_IC = self.gnss.measure(
                 self._rng(_GNSS, tick), truth.chaser_state_I[:3], truth.chaser_state_I[3:]
@@ -403,12 +457,14 @@ class NavigationComputer:
 
     # ------------------------------------------------------------------------------- output
 
-    def covariance_at(self, memory: NavigationMemory) -> np.ndarray:
-        """The filter's covariance (14, 14) carried to the last event (between fixes an event
-        carries only the nominal; the covariance's growth does not depend on the thrust)."""
-        estimate, state = memory.estimate, memory.filter
-        if estimate is None:
+    def covariance_at(self, memory: NavigationMemory, t: float) -> np.ndarray:
+        """The covariance (14, 14) of the estimate shown at t, carried to the last event
+        (between fixes an event carries only the nominal; the covariance's growth does not
+        depend on the thrust)."""
+        shown = memory.shown(t)
+        if shown is None:
             return np.full((rn.ERROR_SIZE, rn.ERROR_SIZE), np.nan)
+        estimate, state = shown.estimate, shown.filter
         if estimate.t <= state.t + _TIME_TOLERANCE_S:
             return state.P
         s = self.settings
@@ -423,33 +479,59 @@ class NavigationComputer:
         ).P
 
     def _thrust_since(self, memory: NavigationMemory, chaser_state_I, dt: float):
-        """(dp_L, dv_L): what the chaser's thrust added to its position and velocity over the
-        dt since memory's tick, in L. What an IMU's accelerometer gives the navigation
+        """(dp_L, dv_L): what the chaser's thrust added to its relative position and velocity
+        in L over the dt since memory's event. What an IMU's accelerometer gives the navigation
         computer integrated at its own rate (hundreds of Hz), emulated from the truth: the
-        chaser's change beyond its start velocity and gravity, gravity taken linear over the
-        interval (its error, ~1e-8 m/s^2 over 0.1 s in low orbit, is far below any thrust).
+        chaser's change beyond its start velocity and gravity in I, gravity taken linear in
+        time over the interval (the trapezoid's error on its curvature along the orbit,
+        dt^2 n^4 r / 12 ~ 2e-7 m/s^2 between events 0.5 s apart in low orbit, is far below
+        the filter's acceleration noise; tests/systems/test_navigation_thrust.py):
+
+            dv_I = int a ds,    dp_I = int (t1 - s) a ds,
+
+        mapped into L to first order in the rotation w dt of L over the interval (w = w_IL_L;
+        R = R_LI at the interval's start): the frame turning under the thrust (R_LI(s) =
+        (I - [w x] (s - t0)) R) and the Coriolis coupling of the relative motion (Phi_vv(tau) =
+        I - 2 [w x] tau, Phi_pv(tau) = I tau - [w x] tau^2) give
+
+            dv_L = R dv_I - w x R (dt dv_I + dp_I),    dp_L = R dp_I - dt w x R dp_I.
+
+        Left out, the velocity's n dt share of the thrust made a velocity error that grew with
+        the interval: on hold_point's 1 m/s approach, 0.27 mm/s between 0.5 s events.
         Both increments, not a mean acceleration: a PWM fires early in its period, and a
-        mean acceleration spread over the tick misplaces the position by a dt^2 / 8 every
-        tick, a bias the fixes then read as a velocity error (0.45 mm/s on hold_point).
+        mean acceleration spread over the interval misplaces the position by a dt^2 / 8 each
+        time, a bias the fixes then read as a velocity error (0.45 mm/s on hold_point).
         Zero before the first event."""
         if memory.chaser_last is None or memory.R_IL is None or not dt > 0.0:
             return _ZERO3, _ZERO3
-        p0, v0 = memory.chaser_last[:3], memory.chaser_last[3:]
-        p1, v1 = chaser_state_I[:3], chaser_state_I[3:]
-        g0 = np.array(gravity_acceleration_xyz(*p0.tolist(), self.gravity))
-        g1 = np.array(gravity_acceleration_xyz(*p1.tolist(), self.gravity))
-        dv_I = v1 - v0 - 0.5 * dt * (g0 + g1)
-        dp_I = p1 - p0 - v0 * dt - dt * dt * (g0 / 3.0 + g1 / 6.0)
+        # On Python floats: this runs at every read of the estimate.
+        x0, y0, z0, u0, v0, w0 = memory.chaser_last.tolist()
+        x1, y1, z1, u1, v1, w1 = np.asarray(chaser_state_I, dtype=float).tolist()
+        gx0, gy0, gz0 = memory.gravity_last
+        gx1, gy1, gz1 = gravity_acceleration_xyz(x1, y1, z1, self.gravity)
+        h, hh = 0.5 * dt, dt * dt
+        dv_I = np.array([u1 - u0 - h * (gx0 + gx1), v1 - v0 - h * (gy0 + gy1),
+                         w1 - w0 - h * (gz0 + gz1)])  # fmt: skip
+        dp_I = np.array(
+            [
+                x1 - x0 - u0 * dt - hh * (gx0 / 3.0 + gx1 / 6.0),
+                y1 - y0 - v0 * dt - hh * (gy0 / 3.0 + gy1 / 6.0),
+                z1 - z0 - w0 * dt - hh * (gz0 / 3.0 + gz1 / 6.0),
+            ]
+        )
         R_LI = memory.R_IL.T
-        return R_LI @ dp_I, R_LI @ dv_I
+        dp, dv = R_LI @ dp_I, R_LI @ dv_I
+        w = memory.w_IL_L
+        return dp - dt * cross(w, dp), dv - cross(w, dt * dv + dp)
 
     def sensed_at(self, memory: NavigationMemory, t: float, chaser_state_I) -> np.ndarray:
         """The `sensed` vector (33) the estimate gives at t (>= the last tick's time), the
         chaser's thrust since that tick included (its accelerometer is read at t)."""
-        if memory.estimate is None or memory.target_I is None:
+        shown = memory.shown(t)
+        if shown is None or memory.target_I is None:
             return np.full(SENSED_SIZE, np.nan)
-        dt = t - memory.estimate.t
-        state, target, q_IL, q_IC = memory.estimate, memory.target_I, memory.q_IL, memory.q_IC
+        state, target, q_IL, q_IC = shown.estimate, memory.target_I, memory.q_IL, memory.q_IC
+        dt = t - state.t
         out = np.empty(SENSED_SIZE)  # rpod.systems.sensed's layout, filled in place
         if dt > 0.0:  # read between events: at most half a second on
             dp_L, dv_L = self._thrust_since(memory, np.asarray(chaser_state_I), dt)
@@ -481,10 +563,14 @@ def _gravity_step(state_I: np.ndarray, dt: float, gravity: str) -> np.ndarray:
     """A free orbit under the gravity model carried by dt (at most the half second between two
     events), to second order: p + v dt + g dt^2 / 2, v + g dt with g at the middle of the step
     (error ~5e-5 m and ~1e-7 m/s over 0.5 s in low orbit, far below a GNSS fix's)."""
-    p, v = state_I[:3], state_I[3:]
-    middle = p + 0.5 * dt * v
-    g = np.array(gravity_acceleration_xyz(*middle.tolist(), gravity))
-    return np.concatenate([p + dt * v + 0.5 * dt * dt * g, v + dt * g])
+    x, y, z, u, v, w = state_I.tolist()
+    h = 0.5 * dt
+    gx, gy, gz = gravity_acceleration_xyz(x + h * u, y + h * v, z + h * w, gravity)
+    hh = h * dt
+    return np.array(
+        [x + dt * u + hh * gx, y + dt * v + hh * gy, z + dt * w + hh * gz,
+         u + dt * gx, v + dt * gy, w + dt * gz]
+    )  # fmt: skip
 
 
 class RelativeNavigation(LeafSystem):
@@ -496,10 +582,12 @@ class RelativeNavigation(LeafSystem):
     Output ports:
         sensed (33): the estimate, carried to the instant it is read (with the thrust since
             the last tick, from chaser_state_I: the only output that reads an input).
-        estimate (15): [p_LC_L, v_LC_L, q_IT, w_IT_T, p_x, p_y] at the last tick.
-        covariance (196): the filter's error covariance (14 x 14, row by row) at the last tick,
-            in the error state [dp, dv, dtheta_T, dw_T, dk] of rpod.models.relative_navigation.
-        navigation_status (5): STATUS_FIELDS.
+        estimate (15): [p_LC_L, v_LC_L, q_IT, w_IT_T, p_x, p_y] at the last event, of the
+            last fix arrived.
+        covariance (196): its error covariance (14 x 14, row by row) at the last event, in the
+            error state [dp, dv, dtheta_T, dw_T, dk] of rpod.models.relative_navigation.
+        navigation_status (5): STATUS_FIELDS (used, rejected and restarts as of the last fix
+            arrived; unseen as of the last sample).
 
     Args:
         computer: the navigation's computation (its config, seed and models).
@@ -518,12 +606,13 @@ class RelativeNavigation(LeafSystem):
         for period_s, offset_s in computer.event_schedule():
             self.DeclarePeriodicUnrestrictedUpdateEvent(period_s, offset_s, self._update)
         self._done = (None, None, None)  # (memory, tick, its successor)
-        state = {self.abstract_state_ticket(self._memory)}
+        # Every output shows the fixes arrived by the instant it is read: state and time.
+        state = {self.abstract_state_ticket(self._memory), self.time_ticket()}
         self.DeclareVectorOutputPort(
             "sensed",
             SENSED_SIZE,
             self._calc_sensed,
-            state | {self.time_ticket(), self.input_port_ticket(self._chaser_port.get_index())},
+            state | {self.input_port_ticket(self._chaser_port.get_index())},
         )
         self.DeclareVectorOutputPort("estimate", ESTIMATE_SIZE, self._calc_estimate, state)
         size = rn.ERROR_SIZE * rn.ERROR_SIZE
@@ -561,15 +650,19 @@ class RelativeNavigation(LeafSystem):
         )
 
     def _calc_estimate(self, context, output) -> None:
-        estimate = self._memory_of(context).estimate
-        if estimate is None:
+        shown = self._memory_of(context).shown(context.get_time())
+        if shown is None:
             output.SetFromVector(np.full(ESTIMATE_SIZE, np.nan))
             return
-        output.SetFromVector(rn.nominal_vector(estimate))
+        output.SetFromVector(rn.nominal_vector(shown.estimate))
 
     def _calc_covariance(self, context, output) -> None:
-        output.SetFromVector(self._computer.covariance_at(self._memory_of(context)).ravel())
+        memory = self._memory_of(context)
+        output.SetFromVector(self._computer.covariance_at(memory, context.get_time()).ravel())
 
     def _calc_status(self, context, output) -> None:
         memory = self._memory_of(context)
-        output.SetFromVector(np.array([*memory.counts, memory.last_nis], dtype=float))
+        shown = memory.shown(context.get_time())
+        used, rejected, restarts = shown.counts if shown is not None else (0, 0, 0)
+        nis = shown.nis if shown is not None else math.nan
+        output.SetFromVector(np.array([used, rejected, memory.counts[2], restarts, nis]))

@@ -30,7 +30,8 @@ class Ekf:
 
     update_period_s: the navigation's time grid: every sensor's period is a whole number of
         it, and a fix's latency is rounded up to it. The navigation works only at its events
-        (a sample, a fix's arrival: rpod.systems.navigation), not at every tick.
+        (its sensors' samples; a fix's update is shown from its arrival on:
+        rpod.systems.navigation), not at every tick.
     lead_in_s: how long the sensors and the filter run before t = 0 (rpod.systems.navigation):
         60 s by default, the time a tumble of a few deg/s takes to show the filter its inertia
         (at 20 s, the first default, paper 000's soft capture captured 45 of 50 sampled cases
@@ -83,7 +84,7 @@ class Ekf:
     prior_inertia_sigma: float = positive(0.15, high=1.0)
     gate_probability: float = bounded(0.9999, 0.5, 1.0, high_open=True)
     excitation_sigmas: float = bounded(10.0, 0.0, 1e3)
-    max_step_s: float = positive(0.25, high=10.0)
+    max_step_s: float = positive(0.5, high=10.0)
     process_model: typing.Literal["cw", "exact"] = "cw"
     restart_after_rejections: int = count(4, 1, 1000)
 
