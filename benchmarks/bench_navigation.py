@@ -106,9 +106,9 @@ def tick_parts() -> list[tuple[str, float]]:
         (with_fix if after.counts[:2] != previous.counts[:2] else without).append(elapsed)
         return after
 
-    def timed_read(self, memory, t, chaser_state_I):
+    def timed_read(self, memory, t, chaser_state_I, q_IC_true):
         start = time.perf_counter()
-        out = sensed_at(self, memory, t, chaser_state_I)
+        out = sensed_at(self, memory, t, chaser_state_I, q_IC_true)
         reads.append(time.perf_counter() - start)
         return out
 
