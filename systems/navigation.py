@@ -51,8 +51,8 @@ from rpod.models.frames import (
     quaternion_conjugate,
     quaternion_product,
     quaternion_wxyz,
-    rotation_from_wxyz,
     rotation_vector_quaternion,
+    rotations_from_wxyz,
 )
 from rpod.models.gravity import gravity_acceleration_xyz
 from rpod.models.orbit import lvlh_of
@@ -140,6 +140,8 @@ class EstimateVersion:
     estimate: its nominal carried to the navigation's last event (the thrust included).
     counts: (fixes used, rejected, filter restarts) with this fix.
     nis: the fix's normalised innovation squared.
+    covariance: the filter's covariance carried to the estimate's time, when an event has
+        carried it there (the prediction the next fix's update starts from); else None.
     """
 
     arrives_s: float
@@ -147,6 +149,7 @@ class EstimateVersion:
     estimate: rn.FilterState
     counts: tuple
     nis: float
+    covariance: np.ndarray | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -328,6 +331,7 @@ class NavigationComputer:
         covariance = rn.predict(
             latest.filter, fix.t, motion, s.noise, _ZERO, s.max_step_s, s.excitation_sigmas
         ).P
+        versions[-1] = dataclasses.replace(latest, covariance=covariance)  # `covariance_at`
         state = dataclasses.replace(latest.estimate, P=covariance)
         result = rn.update(state, fix, self.gate, s.excitation_sigmas)
         in_a_row = 0 if result.accepted else memory["rejected_in_a_row"] + 1
@@ -376,13 +380,16 @@ class NavigationComputer:
         versions = versions[max(shown, 0) :]
         if dt > 0.0:
             versions = [
-                dataclasses.replace(v, estimate=self._carry(v.estimate, t, increments, motion))
+                dataclasses.replace(
+                    v, estimate=self._carry(v.estimate, t, increments, motion), covariance=None
+                )
                 for v in versions
             ]
 
         # A pose fix taken now: the filter updated at once, shown from its arrival.
         if self._due("pose_sensor.rate_hz", tick):
-            R_LC = rotation_from_wxyz(sensed.q_IL).T @ rotation_from_wxyz(sensed.q_IC)
+            R_IL, R_IC = rotations_from_wxyz(np.array([sensed.q_IL, sensed.q_IC]))
+            R_LC = R_IL.T @ R_IC
             fix, _ = self.pose.measure(
                 self._rng(_POSE, tick), t, sensed.p_LC_L, sensed.q_IT, R_LC, self.boresight_C
             )
@@ -468,6 +475,8 @@ class NavigationComputer:
         estimate, state = shown.estimate, shown.filter
         if estimate.t <= state.t + _TIME_TOLERANCE_S:
             return state.P
+        if shown.covariance is not None:  # carried by this event's update already
+            return shown.covariance
         s = self.settings
         return rn.predict(
             state,
