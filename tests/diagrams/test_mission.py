@@ -57,6 +57,22 @@ def test_a_controller_with_another_mission_is_judged_by_capture_and_keeps_its_ow
     assert summary["stopped_early"] is None
 
 
+def test_the_hold_point_flown_onto_the_port_captures_paper_000_s_start():
+    """The PD baseline of the shoot-out (issue 22): !HoldPoint with `capture` holds the
+    chaser's capture point on the port, and the common criterion judges it."""
+    from rpod.diagrams.controllers.hold_point.config import HoldPoint
+
+    _, scenario = load_scenario("soft_capture")
+    baseline = HoldPoint(hold_distance_m=0.0, capture=True)
+    summary = simulate(
+        dataclasses.replace(scenario, controller=baseline, mission=Capture(), duration_s=150.0)
+    ).summary
+    mission = summary["mission"]
+    assert mission["success"] is True, mission["outcome"]
+    assert summary["sim_time_s"] == pytest.approx(mission["capture"]["time_s"])
+    assert 60.0 < mission["capture"]["time_s"] < 150.0  # slower than the planner's 48.5 s
+
+
 def _log(distance, speed, separation):
     return {
         "t": np.arange(len(distance), dtype=float),
