@@ -48,19 +48,32 @@ class Capture:
 def capture_verdict(log: dict, criterion: Capture) -> dict:
     """The capture criterion on a run's log (the safety monitor's capture_distance_m,
     capture_speed_m_s and separation_m at every sample; the last sample is where the run
-    ended, so a run stopped at its capture is judged there).
+    ended, so a run stopped at its capture is judged there): `judge_capture` on them."""
+    return judge_capture(
+        log["t"],
+        log["capture_distance_m"],
+        log["capture_speed_m_s"],
+        log["separation_m"],
+        criterion.position_tol_m,
+        criterion.speed_tol_m_s,
+    )
+
+
+def judge_capture(t, distance, speed, separation, eps_p: float, eps_v: float) -> dict:
+    """Capture on sampled signals: the first sample with the capture points' distance within
+    eps_p and their relative speed within eps_v, no sample with the shapes touching
+    (separation <= 0) before it.
 
     Returns:
-        {success, reason, time_s, position_error_m, speed_error_m_s}: at the capture sample,
-        or when it failed at the first contact or at the sample closest to meeting both
-        tolerances (least max(distance / eps_p, speed / eps_v)), the reason naming which
-        tolerance was missed and by how much.
+        {success, reason, time_s, position_error_m, speed_error_m_s, first_contact_s}: at the
+        capture sample, or when it failed at the first contact or at the sample closest to
+        meeting both tolerances (least max(distance / eps_p, speed / eps_v)), the reason
+        naming which tolerance was missed and by how much; first_contact_s is NaN without
+        contact.
     """
-    eps_p, eps_v = criterion.position_tol_m, criterion.speed_tol_m_s
-    distance = np.asarray(log["capture_distance_m"], float)
-    speed = np.asarray(log["capture_speed_m_s"], float)
+    distance, speed = np.asarray(distance, float), np.asarray(speed, float)
     met = np.flatnonzero((distance <= eps_p) & (speed <= eps_v))
-    contact = np.flatnonzero(~(np.asarray(log["separation_m"], float) > 0.0))
+    contact = np.flatnonzero(~(np.asarray(separation, float) > 0.0))
     first_contact = int(contact[0]) if len(contact) else None
     success = bool(len(met)) and (first_contact is None or first_contact > met[0])
     if success:
@@ -68,7 +81,7 @@ def capture_verdict(log: dict, criterion: Capture) -> dict:
         reason = f"capture points within {eps_p} m and {eps_v} m/s, no contact before"
     elif first_contact is not None:
         i = first_contact
-        reason = f"contact: the true shapes touched at t = {log['t'][i]:.2f} s"
+        reason = f"contact: the true shapes touched at t = {t[i]:.2f} s"
     else:
         i = int(np.argmin(np.maximum(distance / eps_p, speed / eps_v)))
         if not np.any(distance <= eps_p):
@@ -84,9 +97,10 @@ def capture_verdict(log: dict, criterion: Capture) -> dict:
     return {
         "success": success,
         "reason": reason,
-        "time_s": float(log["t"][i]),
+        "time_s": float(t[i]),
         "position_error_m": float(distance[i]),
         "speed_error_m_s": float(speed[i]),
+        "first_contact_s": float(t[first_contact]) if first_contact is not None else math.nan,
     }
 
 
