@@ -124,7 +124,7 @@ class MissionOutcome:
     Attributes:
         success: True or False.
         text: one line for `rpod run`, e.g. "captured at 48.5 s to 0.109 m and 0.029 m/s" or
-            "not captured: contact: the true polytopes touched at t = 31.20 s".
+            "NOT captured: contact: the true shapes touched at t = 31.20 s".
     """
 
     success: bool

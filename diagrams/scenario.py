@@ -16,6 +16,7 @@ import numpy as np
 from pydrake.systems.analysis import SimulatorConfig
 
 from rpod.diagrams import controller_seam
+from rpod.diagrams import mission as mission_choices
 from rpod.models import modulation
 from rpod.models import thrusters as presets
 from rpod.models.config import CHOICES_KEY, ConfigError, check_bounds
@@ -222,6 +223,9 @@ class Scenario:
         navigation: what the controller reads: `!Truth {}` (the default: the true state, as
             every paper assumes) or `!Ekf {...}` (sensors and a relative-navigation filter on
             the truth: rpod.systems.navigation).
+        mission: how the run's success is judged: `!ControllerCriterion {}` (the default: the
+            controller's own criterion) or `!Capture {...}` (paper 000's capture criterion,
+            alike for every controller: rpod.diagrams.mission).
         seed: the seed of every random draw of the run (the sensors' noise).
         duration_s: simulated time [s]; with stop.at_plan_end, the most simulated time.
         stop: ending the run at the controller's planned end (stop.at_plan_end).
@@ -247,6 +251,9 @@ class Scenario:
     )
     navigation: typing.Union[navigation_choices.Truth, navigation_choices.Ekf] = dataclasses.field(  # noqa: UP007
         default_factory=navigation_choices.Truth
+    )
+    mission: typing.Union[mission_choices.ControllerCriterion, mission_choices.Capture] = (  # noqa: UP007
+        dataclasses.field(default_factory=mission_choices.ControllerCriterion)
     )
     seed: int = 0
     duration_s: float = 600.0
@@ -601,6 +608,11 @@ def validate_scenario(scenario: Scenario) -> None:
             scenario.navigation.validate()
         except ConfigError as error:
             raise error.under("navigation") from None
+    if isinstance(scenario.mission, mission_choices.Capture):
+        try:
+            check_bounds(scenario.mission)
+        except ConfigError as error:
+            raise error.under("mission") from None
     _require(
         isinstance(scenario.seed, int) and 0 <= scenario.seed < 2**63,
         "seed",

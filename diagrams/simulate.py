@@ -23,6 +23,13 @@ from pydrake.systems.framework import EventStatus
 from rpod.diagrams import controller_seam
 from rpod.diagrams.builder import DiagramHandles, build_diagram
 from rpod.diagrams.metrics import run_summary
+from rpod.diagrams.mission import (
+    Capture,
+    CaptureWatch,
+    capture_reach_m,
+    capture_verdict,
+    verdict_text,
+)
 from rpod.diagrams.navigation_results import navigation_log, navigation_summary
 from rpod.diagrams.scenario import Scenario, scenario_warnings
 from rpod.systems.safety_monitor import ContactWatch
@@ -132,11 +139,13 @@ class _StepMonitor:
     """The Simulator's monitor: called after Initialize and after every integrator step.
 
     It adds no event, so nothing it does changes a step: it checks contact of the true shapes
-    (ContactWatch), publishes the scene (SceneDriver, when drawing) and reports progress.
+    (ContactWatch), ends the run at its capture under `mission: !Capture` (CaptureWatch),
+    publishes the scene (SceneDriver, when drawing) and reports progress.
     """
 
-    def __init__(self, contact, scene_driver, progress, end_s: float):
+    def __init__(self, contact, scene_driver, progress, end_s: float, capture=None):
         self.contact = contact
+        self._capture = capture
         self._scene = scene_driver
         self._progress = progress
         self.end_s = end_s
@@ -149,6 +158,8 @@ class _StepMonitor:
         if self._progress is not None and time.perf_counter() >= self._next_progress_wall:
             self._progress(root_context.get_time(), self.end_s)
             self._next_progress_wall = time.perf_counter() + PROGRESS_PERIOD_S
+        if self._capture is not None:
+            return self._capture.observe(root_context)
         return EventStatus.Succeeded()
 
 
@@ -164,13 +175,18 @@ def contact_text(contact: dict) -> str:
     )
 
 
-def mission_verdict(outcome, contact: dict, has_controller: bool) -> dict:
-    """summary.json's `mission`: the controller's verdict and the run's contact, joined.
+def mission_verdict(outcome, contact: dict, has_controller: bool, capture=None) -> dict:
+    """summary.json's `mission`: the verdict and the run's contact, joined.
 
-    Contact of the true shapes anywhere in the run fails the mission whatever the
-    controller's own criterion says (a safety event is never hidden by a success); the line
-    then leads with it. `controller_success` keeps the plug-in's own verdict.
+    The verdict is the controller's own (`outcome`), or under `mission: !Capture` the capture
+    criterion's (`capture`, rpod.diagrams.mission.capture_verdict, kept under `capture`).
+    Contact of the true shapes anywhere in the run fails the mission whatever the criterion
+    says (a safety event is never hidden by a success); the line then leads with it.
+    `controller_success` keeps the plug-in's own verdict; `criterion` names the one judged.
     """
+    controller_success = None if outcome is None else bool(outcome.success)
+    if capture is not None:
+        outcome = controller_seam.MissionOutcome(capture["success"], verdict_text(capture))
     if outcome is None:
         text = (
             "no mission criterion (the controller gives none)"
@@ -184,12 +200,16 @@ def mission_verdict(outcome, contact: dict, has_controller: bool) -> dict:
         prefix = "NOT a success: " if success else ""
         text = f"{prefix}{contact_text(contact)}; {text}"
         success = False if success is not None else None
-    return {
+    verdict = {
         "success": success,
         "outcome": text,
-        "controller_success": None if outcome is None else bool(outcome.success),
+        "criterion": "controller" if capture is None else "capture",
+        "controller_success": controller_success,
         "contact": contact["occurred"],
     }
+    if capture is not None:
+        verdict["capture"] = capture
+    return verdict
 
 
 def simulate(scenario: Scenario, meshcat=None, progress=None) -> SimulationResult:
@@ -218,7 +238,15 @@ def simulate(scenario: Scenario, meshcat=None, progress=None) -> SimulationResul
     built = time.perf_counter()
     status, warnings, stopped = "ok", scenario_warnings(scenario), None
     watch = ContactWatch(handles.monitor, handles.orbital)
-    step_monitor = _StepMonitor(watch, handles.scene_driver, progress, scenario.duration_s)
+    criterion = scenario.mission if isinstance(scenario.mission, Capture) else None
+    capture_watch = None
+    if criterion is not None and criterion.stop_at_capture:
+        capture_watch = CaptureWatch(
+            criterion, handles.monitor, handles.orbital, watch, capture_reach_m(scenario)
+        )
+    step_monitor = _StepMonitor(
+        watch, handles.scene_driver, progress, scenario.duration_s, capture_watch
+    )
     simulator.set_monitor(step_monitor)
     try:
         simulator.Initialize()
@@ -258,7 +286,10 @@ def simulate(scenario: Scenario, meshcat=None, progress=None) -> SimulationResul
     # "Did the simulation run" (status) apart from "did the mission succeed" (mission), and
     # contact of the true shapes, one event for every method, in both.
     summary["contact"] = watch.summary(log)
-    summary["mission"] = mission_verdict(outcome, summary["contact"], handles.wiring is not None)
+    capture = capture_verdict(log, criterion) if criterion is not None else None
+    summary["mission"] = mission_verdict(
+        outcome, summary["contact"], handles.wiring is not None, capture
+    )
     integ = simulator.get_integrator()
     summary.update(
         wall_time_s=finished - built,

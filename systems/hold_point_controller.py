@@ -49,6 +49,12 @@ class HoldPointControllerConfig:
     Args:
         control_period_s: sample period of the law (the PWM period downstream).
         hold_distance_m: distance of the hold point beyond the docking port, along the axis.
+        capture: hold the chaser's capture point E (chaser.capture_point_C), not its centre,
+            hold_distance_m beyond the port: the centre's hold point moves |r_CE| further out
+            (p_TH_T = p_TD_T + (d + |r_CE|) a_T), where, with the capture axis pointed at the
+            target's centre along a docking axis through it, E is d beyond the port. With
+            hold_distance_m 0 the law flies E onto the port, matching its motion: the PD
+            baseline of a capture (judged by `mission: !Capture`, rpod.diagrams.mission).
         translation_bandwidth_rad_s: natural frequency w_n of the position loop.
         translation_damping: damping ratio zeta of the position loop.
         max_speed_m_s: limit on the commanded speed relative to the reference.
@@ -70,6 +76,7 @@ class HoldPointControllerConfig:
 
     control_period_s: float = positive(0.1, 300.0)
     hold_distance_m: float = bounded(10.0, 0.0, 1e6)
+    capture: bool = False
     translation_bandwidth_rad_s: float = positive(0.15, 10.0)
     translation_damping: float = positive(1.0, 10.0)
     max_speed_m_s: float = positive(0.5, 1e4)
@@ -131,7 +138,10 @@ class HoldPointController(LeafSystem):
         self._config = config
         self._mass = chaser_mass_kg
         self._J = np.asarray(chaser_inertia, dtype=float)
-        self._p_TH_T = docking.p_TD_T + config.hold_distance_m * docking.axis_T
+        distance = config.hold_distance_m
+        if config.capture:  # the capture point d beyond the port (the config's docstring)
+            distance = distance + float(np.linalg.norm(capture_point_C))
+        self._p_TH_T = docking.p_TD_T + distance * docking.axis_T
         # R_CK: a fixed frame K in C whose z axis is the capture axis; the law points K.
         capture_C = _unit(np.asarray(capture_point_C, float))  # the capture axis
         self._R_CK = _pointing_rotation(capture_C, np.array([1.0, 0.0, 0.0]), np.eye(3)[1])

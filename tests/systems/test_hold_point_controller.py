@@ -77,6 +77,19 @@ def test_at_rest_on_the_hold_point_of_a_still_target_the_wrench_is_zero():
     np.testing.assert_allclose(out["body_wrench_desired"], np.zeros(6), atol=1e-9)
 
 
+def test_with_capture_the_capture_point_is_held_beyond_the_port_and_its_centre_further_out():
+    # The capture point 0.75 m up z_C, the chaser turned to face the port: at rest with its
+    # centre 1 + 2 + 0.75 m up z_T, its capture point is 2 m beyond the port, and the law is
+    # at equilibrium there.
+    config = HoldPointControllerConfig(hold_distance_m=2.0, capture=True)
+    out = evaluate([0.0, 0.0, 3.75], config=config)
+    np.testing.assert_allclose(out["hold_point_L"], [0, 0, 3.75], atol=1e-12)
+    np.testing.assert_allclose(out["body_wrench_desired"], np.zeros(6), atol=1e-9)
+    onto_the_port = HoldPointControllerConfig(hold_distance_m=0.0, capture=True)
+    out = evaluate([0.0, 0.0, 1.75], config=onto_the_port)
+    np.testing.assert_allclose(out["hold_point_L"], [0, 0, 1.75], atol=1e-12)
+
+
 def test_co_rotating_hold_needs_exactly_the_centripetal_force():
     w = np.array([0.02, 0.0, 0.0])  # about x_T: the hold point (0, 0, 11) moves along -y
     p = np.array([0.0, 0.0, 11.0])

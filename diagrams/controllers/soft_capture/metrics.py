@@ -15,6 +15,7 @@ import math
 import numpy as np
 
 from rpod.diagrams.controller_seam import MissionOutcome
+from rpod.diagrams.mission import judge_capture
 from rpod.models.frames import rotation_from_wxyz
 from rpod.systems.soft_capture_controller import MODES as CONTROLLER_MODES
 from rpod.systems.soft_capture_controller import PLANNER_STATUSES
@@ -29,6 +30,9 @@ def capture_outcome(log: dict, scenario) -> dict:
     (`capture_speed_m_s` of the SafetyMonitor), provided the true polytopes never touched
     before (`separation_m` > 0 at every sample up to and including that one). Contact is
     checked at the log samples: log at the control period for a run whose verdict matters.
+    The criterion is `mission: !Capture`'s (rpod.diagrams.mission.judge_capture), on the
+    capture points' distance computed here from the logged poses, with the planner's
+    tolerances.
 
     Returns:
         {success, reason, time_s, position_error_m, speed_error_m_s, contact_after_s}: the
@@ -39,7 +43,6 @@ def capture_outcome(log: dict, scenario) -> dict:
         centripetal force than they have -- ends in one, and a user should see it).
     """
     settings = scenario.controller.planner
-    eps_p, eps_v = settings.capture_position_tol_m, settings.capture_speed_tol_m_s
     D_c = np.asarray(scenario.chaser.capture_point_C, float)
     D_t = np.asarray(scenario.target.docking_port_T, float)
     position_error = np.empty(len(log["t"]))
@@ -50,46 +53,16 @@ def capture_outcome(log: dict, scenario) -> dict:
         p_E_L = p_LC_L + R_LI @ rotation_from_wxyz(q_IC) @ D_c  # chaser capture point
         p_D_L = R_LI @ rotation_from_wxyz(q_IT) @ D_t  # target capture point
         position_error[i] = np.linalg.norm(p_E_L - p_D_L)
-    speed = np.asarray(log["capture_speed_m_s"], float)
-    separation = np.asarray(log["separation_m"], float)
-    met = np.flatnonzero((position_error <= eps_p) & (speed <= eps_v))
-    contact = np.flatnonzero(~(separation > 0.0))
-    outcome = {
-        "success": False,
-        "reason": "",
-        "time_s": float("nan"),
-        "contact_after_s": float("nan"),
-    }
-    if len(met) and (not len(contact) or contact[0] > met[0]):
-        i = int(met[0])
-        outcome.update(
-            success=True,
-            reason=f"capture points within eps_p = {eps_p} m and "
-            f"eps_v = {eps_v} m/s with no contact before",
-        )
-        if len(contact):
-            outcome["contact_after_s"] = float(log["t"][int(contact[0])])
-    elif len(contact) and (not len(met) or contact[0] <= met[0]):
-        i = int(contact[0])
-        outcome["reason"] = f"contact: the true polytopes touched at t = {log['t'][i]:.2f} s"
-    else:
-        i = int(np.argmin(np.maximum(position_error / eps_p, speed / eps_v)))
-        if not np.any(position_error <= eps_p):
-            outcome["reason"] = (
-                f"position: the capture points never came within eps_p = "
-                f"{eps_p} m (closest {position_error.min():.3f} m)"
-            )
-        else:
-            within = position_error <= eps_p
-            outcome["reason"] = (
-                f"speed: while within eps_p the capture points' relative speed never fell to "
-                f"eps_v = {eps_v} m/s (least {speed[within].min():.4f} m/s)"
-            )
-    outcome.update(
-        time_s=float(log["t"][i]),
-        position_error_m=float(position_error[i]),
-        speed_error_m_s=float(speed[i]),
+    outcome = judge_capture(
+        log["t"],
+        position_error,
+        log["capture_speed_m_s"],
+        log["separation_m"],
+        settings.capture_position_tol_m,
+        settings.capture_speed_tol_m_s,
     )
+    first_contact = outcome.pop("first_contact_s")
+    outcome["contact_after_s"] = first_contact if outcome["success"] else float("nan")
     return outcome
 
 
