@@ -162,6 +162,7 @@ def test_ideal_acceleration_controller_defined_in_a_test_flies_through_rpod_run(
     assert summary["mission"] == {
         "success": True,
         "outcome": f"moved {summary['moved_m']:.2f} m",
+        "criterion": "controller",
         "controller_success": True,
         "contact": False,
     }
