@@ -28,7 +28,7 @@ class ControllerCriterion:
 
 @dataclasses.dataclass
 class Capture:
-    """Success is capture, judged alike for every controller (paper 000 Sec. II, Table I): the
+    """Success is capture, judged alike for every controller (paper 000 eqs. 13-14, Table I): the
     capture points -- the chaser's E (chaser.capture_point_C) and the target's docking port D
     (target.docking_port_T) -- within position_tol_m of each other, their inertial relative
     speed within speed_tol_m_s, the true shapes not having touched before, within the run.

@@ -571,8 +571,8 @@ class FilterSettings:
         pose sensor's period at 2 Hz, so one step a fix. At a 10 deg/s tumble the step turns
         0.09 rad: RK4's error is ~(w dt)^5 / 120 ~ 4e-8 rad, the second-order transition's
         ~(w dt)^3 / 6 ~ 1e-4 of the covariance's rotation; noise-free hold_point's error is the
-        same as at 0.25 s (0.017 mm), and half the steps made the navigation's cost 1.2 times
-        lower (benchmarks/results/navigation_cost.md).
+        same as at 0.25 s (0.017 mm), and a prediction between fixes is one step, not two
+        (benchmarks/results/navigation_cost.md).
     """
 
     noise: ProcessNoise = ProcessNoise()
