@@ -541,8 +541,8 @@ class NavigationComputer:
         chaser's thrust and rotation since that event included: its IMU is read at t (the
         accelerometer's increments, `_thrust_since`; the integrating gyro's angle since the
         event, the truth's rotation q_IC_true over it plus the bias, its white noise left out
-        between events: at the default 0.15 deg/sqrt(h), 0.002 deg over 0.5 s, a fifth of the
-        star tracker's 10 arcsec). Carried instead by the gyro's windowed mean rate, a slewing
+        between events: at the default 0.15 deg/sqrt(h), 0.002 deg over 0.5 s, below the star
+        tracker's 10 arcsec, 0.003 deg). Carried instead by the gyro's windowed mean rate, a slewing
         chaser's attitude was 0.4 deg off within the half second between events (paper 000's
         soft capture then spent 8 m/s more)."""
         shown = memory.shown(t)
