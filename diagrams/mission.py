@@ -118,21 +118,21 @@ class CaptureWatch:
     """Ends a run at its capture (`Capture.stop_at_capture`): called by simulate's Simulator
     monitor after every integrator step, after the contact watch, it reads the safety
     monitor's capture outputs, so it adds no event and changes no step. While the chaser's
-    centre is farther from the target's than |r_CE| + |r_TD| + eps_p, the capture points cannot
-    be within eps_p (the triangle inequality) and nothing is evaluated.
+    centre is farther from the target's than |r_CE| + |r_TD| + eps_p (the contact watch has
+    just measured it), the capture points cannot be within eps_p (the triangle inequality) and
+    nothing is evaluated.
     """
 
-    def __init__(self, criterion: Capture, monitor, truth, contact, reach_m: float):
+    def __init__(self, criterion: Capture, monitor, contact, reach_m: float):
         """Args:
         criterion: the scenario's Capture block.
         monitor: the diagram's SafetyMonitor (its capture outputs are read).
-        truth: the diagram's Truth (`separation_of_origins_m`, the cheap gate).
-        contact: the run's ContactWatch (a capture after a contact is no capture).
+        contact: the run's ContactWatch, observed at the same step just before (its
+            `origin_distance_m` is the gate; a capture after a contact is no capture).
         reach_m: |r_CE| + |r_TD|, the capture points' distances from their bodies' centres.
         """
         self._criterion = criterion
         self._monitor = monitor
-        self._truth = truth
         self._contact = contact
         self._gate_m = reach_m + criterion.position_tol_m
         self._distance = monitor.GetOutputPort("capture_distance_m")
@@ -140,10 +140,7 @@ class CaptureWatch:
 
     def observe(self, root_context) -> EventStatus:
         """Succeeded, or ReachedTermination once the capture points meet the criterion."""
-        truth_context = self._truth.GetMyContextFromRoot(root_context)
-        if self._truth.separation_of_origins_m(truth_context) > self._gate_m:
-            return EventStatus.Succeeded()
-        if self._contact.interval_count > 0:
+        if self._contact.origin_distance_m > self._gate_m or self._contact.interval_count > 0:
             return EventStatus.Succeeded()
         context = self._monitor.GetMyContextFromRoot(root_context)
         distance = self._distance.Eval(context)[0]
@@ -161,6 +158,6 @@ class CaptureWatch:
 
 def capture_reach_m(scenario) -> float:
     """|r_CE| + |r_TD|: how far the capture points sit from their bodies' centres."""
-    return math.dist(scenario.chaser.capture_point_C, (0.0, 0.0, 0.0)) + math.dist(
-        scenario.target.docking_port_T, (0.0, 0.0, 0.0)
+    return math.hypot(*scenario.chaser.capture_point_C) + math.hypot(
+        *scenario.target.docking_port_T
     )

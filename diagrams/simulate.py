@@ -241,9 +241,7 @@ def simulate(scenario: Scenario, meshcat=None, progress=None) -> SimulationResul
     criterion = scenario.mission if isinstance(scenario.mission, Capture) else None
     capture_watch = None
     if criterion is not None and criterion.stop_at_capture:
-        capture_watch = CaptureWatch(
-            criterion, handles.monitor, handles.orbital, watch, capture_reach_m(scenario)
-        )
+        capture_watch = CaptureWatch(criterion, handles.monitor, watch, capture_reach_m(scenario))
     step_monitor = _StepMonitor(
         watch, handles.scene_driver, progress, scenario.duration_s, capture_watch
     )

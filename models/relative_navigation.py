@@ -144,15 +144,10 @@ class FilterState:
         )
 
 
-def _rates(motion, x: np.ndarray, a_L: np.ndarray) -> np.ndarray:
-    """d/dt of the nominal [p, v, q, w, k] (15): the translation (CW with mean motion `motion`,
-    or the exact relative motion about a TargetOrbit) with the known acceleration a_L,
-    quaternion kinematics, torque-free Euler, constant inertia parameters."""
-    return np.array(_rates_list(motion, x.tolist(), a_L))
-
-
 def _rates_list(motion, x: list, a_L) -> list:
-    """`_rates` on a list of 15 Python floats, to a list."""
+    """d/dt of the nominal [p, v, q, w, k] (15 Python floats, to a list): the translation (CW
+    with mean motion `motion`, or the exact relative motion about a TargetOrbit) with the known
+    acceleration a_L, quaternion kinematics, torque-free Euler, constant inertia parameters."""
     # On Python floats: the same equations as cw_acceleration, quaternion_rate and euler_rate
     # (tests/models/test_relative_navigation.py checks them against each other), ~4x cheaper
     # than numpy on 3-vectors, and this runs 4 times a step.
@@ -186,7 +181,7 @@ def _rates_list(motion, x: list, a_L) -> list:
 
 
 def rates_reference(n, x: np.ndarray, a_L) -> np.ndarray:
-    """`_rates` from the shared laws (cw_acceleration, quaternion_rate, euler_rate): the
+    """`_rates_list` from the shared laws (cw_acceleration, quaternion_rate, euler_rate): the
     reference its float form is tested against."""
     p, v, q, w, k = x[0:3], x[3:6], x[6:10], x[10:13], x[13:15]
     a = cw_acceleration(n, p, v) + np.asarray(a_L)

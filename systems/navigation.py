@@ -520,8 +520,9 @@ class NavigationComputer:
         gx0, gy0, gz0 = memory.gravity_last
         gx1, gy1, gz1 = gravity_acceleration_xyz(x1, y1, z1, self.gravity)
         h, hh = 0.5 * dt, dt * dt
-        dv_I = np.array([u1 - u0 - h * (gx0 + gx1), v1 - v0 - h * (gy0 + gy1),
-                         w1 - w0 - h * (gz0 + gz1)])  # fmt: skip
+        dv_I = np.array(
+            [u1 - u0 - h * (gx0 + gx1), v1 - v0 - h * (gy0 + gy1), w1 - w0 - h * (gz0 + gz1)]
+        )
         dp_I = np.array(
             [
                 x1 - x0 - u0 * dt - hh * (gx0 / 3.0 + gx1 / 6.0),
@@ -590,9 +591,15 @@ def _gravity_step(state_I: np.ndarray, dt: float, gravity: str) -> np.ndarray:
     gx, gy, gz = gravity_acceleration_xyz(x + h * u, y + h * v, z + h * w, gravity)
     hh = h * dt
     return np.array(
-        [x + dt * u + hh * gx, y + dt * v + hh * gy, z + dt * w + hh * gz,
-         u + dt * gx, v + dt * gy, w + dt * gz]
-    )  # fmt: skip
+        [
+            x + dt * u + hh * gx,
+            y + dt * v + hh * gy,
+            z + dt * w + hh * gz,
+            u + dt * gx,
+            v + dt * gy,
+            w + dt * gz,
+        ]
+    )
 
 
 class RelativeNavigation(LeafSystem):

@@ -148,6 +148,7 @@ class ContactWatch:
         self.max_depth_m = 0.0
         self.max_depth_t_s = None
         self.checks = 0
+        self.origin_distance_m = math.inf  # |p_TC| at the last step checked
         self._in_contact = False
 
     def observe(self, root_context) -> None:
@@ -163,6 +164,7 @@ class ContactWatch:
             context = self._monitor.GetMyContextFromRoot(root_context)
             x, y, z = self._monitor.GetInputPort(SENSED_PORT).Eval(context)[0:3]  # p_LC_L
             distance = math.sqrt(x * x + y * y + z * z)
+        self.origin_distance_m = distance
         if distance > self._far_m:
             self._in_contact = False  # beyond the bounding spheres: no rotation needed
             return

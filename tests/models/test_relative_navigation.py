@@ -297,7 +297,9 @@ def test_the_float_process_model_is_the_shared_laws():
         x[13:15] *= 0.3
         a_L = rng.standard_normal(3)
         np.testing.assert_allclose(
-            nav._rates(N_RAD_S, x, a_L), nav.rates_reference(N_RAD_S, x, a_L), atol=1e-15
+            nav._rates_list(N_RAD_S, x.tolist(), a_L),
+            nav.rates_reference(N_RAD_S, x, a_L),
+            atol=1e-15,
         )
 
 
