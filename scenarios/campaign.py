@@ -60,6 +60,7 @@ from rpod.scenarios.loader import (
     read_yaml,
 )
 from rpod.scenarios.schema import is_record, quote, quote_path
+from rpod.scenarios.yaml_reader import tags_from_json, tags_to_json
 
 CAMPAIGNS_DIR = BUNDLED_DIR / "campaigns"
 TOP_LEVEL_KEYS = ("description", "base", "overrides", "timeout_s", "grid", "cases", "sample")
@@ -129,11 +130,12 @@ def _require_field(node, name: str, path: str, walked: str) -> None:
 def apply_overrides(scenario: Scenario, overrides: dict) -> Scenario:
     """A copy of scenario with each dotted path set; ScenarioError(path, ...) on a bad one.
 
-    Values are plain data checked against the schema (as in a scenario file); the result is not
-    validated as a whole (validate_scenario does that).
+    Values are plain data checked against the schema (as in a scenario file), a union's choice
+    as a TaggedMapping or in tags_to_json's form (as the overrides reach a worker); the result
+    is not validated as a whole (validate_scenario does that).
     """
     scenario = copy.deepcopy(scenario)
-    for path, value in overrides.items():
+    for path, value in tags_from_json(overrides).items():
         annotation = field_annotation(path)
         schema.check(value, annotation, path)
         tokens = schema.path_tokens(path)
@@ -626,7 +628,7 @@ def plan_runs(campaign: Campaign) -> list[PlannedRun]:
                 locations = {p: f"cases[{case_index}].overrides.{p}" for p in case_overrides}
                 locations.update({p: f"grid.{p}" for p in grid_point})
                 locations.update({p: f"sample.fields.{p}" for p in fields})
-                overrides = {**case_overrides, **grid_point, **fields}
+                overrides = tags_to_json({**case_overrides, **grid_point, **fields})
                 try:
                     scenario = apply_overrides(campaign.base, overrides)
                     if safe is not None:

@@ -186,6 +186,26 @@ def test_nested_override_mappings_are_flattened(tmp_path):
     assert apply_overrides(campaign.base, run.overrides).chaser.mass_kg == 321.0
 
 
+def test_a_tagged_override_keeps_its_tag_through_json(tmp_path):
+    """A case choosing a union member (`navigation: !Ekf {}`) reaches a worker as JSON; the tag
+    must survive it (a lost tag chose the union's first member: the run flew truth-fed) and
+    must be part of the run id."""
+    campaign = campaign_from(
+        "base: hold_point\ncases:\n"
+        "  - name: truth\n    overrides: {}\n"
+        "  - name: ekf\n    overrides: {navigation: !Ekf {}}\n"
+        "  - name: ekf_noisier\n    overrides: {navigation: !Ekf {noise_scale: 3.0}}\n",
+        tmp_path,
+    )
+    truth, ekf, noisier = plan_runs(campaign)
+    assert type(apply_overrides(campaign.base, truth.overrides).navigation).__name__ == "Truth"
+    for run, scale in ((ekf, 1.0), (noisier, 3.0)):
+        sent = json.loads(json.dumps(run.overrides))  # what the worker reads
+        navigation = apply_overrides(campaign.base, sent).navigation
+        assert type(navigation).__name__ == "Ekf" and navigation.noise_scale == scale
+    assert len({truth.run_id, ekf.run_id, noisier.run_id}) == 3
+
+
 def test_bundled_demo_sweep_has_at_least_8_runs():
     assert "demo_sweep" in bundled_campaigns()
     campaign = load_campaign("demo_sweep")
