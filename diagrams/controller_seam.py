@@ -109,12 +109,16 @@ class ControllerWiring:
         command: the command port (size 6, n or 3 by the plug-in's actuation path).
         logged: log key -> output port, logged at the scenario's log period.
         ideal: how the IDEAL path reads the command (required for Actuation.IDEAL).
+        step_timer: the rpod.systems.step_timer.StepTimer wrapping the controller's control
+            step, or None; with one, summary.json gives the compute per control step
+            (control_steps, control_step_ms_p50, _p99, _max), the shoot-out's figure.
     """
 
     system: typing.Any
     command: typing.Any
     logged: dict = dataclasses.field(default_factory=dict)
     ideal: IdealCommand | None = None
+    step_timer: typing.Any = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -141,6 +145,11 @@ class ControllerResults:
             None removes that key, e.g. a raw status vector the plug-in split into named
             arrays). Plug-ins never change the `log` they are given.
         outcome: the mission outcome, or None when the controller has no mission criterion.
+
+    Two summary entries mean the same for every method that has a solver, and the shoot-out
+    (rpod.scenarios.comparison) reads them: `solver_failures` (solver calls whose result was
+    not usable, or not accepted) and `fallback_s` (the time flown on a fallback instead of a
+    solution [s]). A method without a solver (a PD) leaves them out.
     """
 
     summary: dict = dataclasses.field(default_factory=dict)

@@ -33,6 +33,7 @@ from rpod.diagrams.mission import (
 from rpod.diagrams.navigation_results import navigation_log, navigation_summary
 from rpod.diagrams.scenario import Scenario, scenario_warnings
 from rpod.systems.safety_monitor import ContactWatch
+from rpod.systems.step_timer import compute_summary
 
 PROGRESS_PERIOD_S = 0.5  # wall time between two progress calls
 
@@ -276,6 +277,8 @@ def simulate(scenario: Scenario, meshcat=None, progress=None) -> SimulationResul
             else:
                 log[key] = value
         summary.update(results.summary)
+        if handles.wiring.step_timer is not None:
+            summary.update(compute_summary(handles.wiring.step_timer))
         outcome = results.outcome
     if handles.navigation is not None:
         summary["navigation"] = navigation_summary(log, scenario.target.inertia_kg_m2)

@@ -51,6 +51,7 @@ from rpod.models import coupled_relative as cr
 from rpod.models.frames import cross, rotation_from_wxyz
 from rpod.planners.coupled_nmpc import NmpcStatus
 from rpod.systems.sensed import Sensed, declare_sensed_input
+from rpod.systems.step_timer import StepTimer
 
 
 class NmpcFallback(enum.IntEnum):
@@ -207,7 +208,10 @@ class CoupledNmpcController(LeafSystem):
         integral0 = np.concatenate([np.zeros(3), np.full(3, math.nan), [math.nan]])
         self._integral = self.DeclareDiscreteState(integral0)
         self._memory = self.DeclareAbstractState(Value[object](_Memory()))
-        self.DeclarePeriodicUnrestrictedUpdateEvent(self._control_period_s, 0.0, self._control)
+        self.step_timer = StepTimer()  # the compute per control step (rpod.systems.step_timer)
+        self.DeclarePeriodicUnrestrictedUpdateEvent(
+            self._control_period_s, 0.0, self.step_timer.timed(self._control)
+        )
         self.DeclarePeriodicDiscreteUpdateEvent(float(integral_step_s), 0.0, self._integrate)
         held = {self.discrete_state_ticket(self._held)}
         size = cr.INPUT_SIZE

@@ -40,6 +40,7 @@ from rpod.models.docking import DockingGeometry
 from rpod.models.frames import cross, rotation_from_wxyz
 from rpod.models.rigid_body import attitude_pd_torque
 from rpod.systems.sensed import Sensed, declare_sensed_input
+from rpod.systems.step_timer import StepTimer
 
 
 @dataclasses.dataclass
@@ -151,8 +152,10 @@ class HoldPointController(LeafSystem):
         # Discrete state: [wrench (6), hold point (3), reference (3)]; abstract: last R_IKdes.
         self._output_state = self.DeclareDiscreteState(12)
         self._previous_desired = self.DeclareAbstractState(Value(np.zeros(0)))
-        self.DeclarePeriodicUnrestrictedUpdateEvent(config.control_period_s, 0.0, self._update)
-        self.DeclareInitializationUnrestrictedUpdateEvent(self._update)  # valid output at t=0
+        self.step_timer = StepTimer()  # the compute per control step (rpod.systems.step_timer)
+        update = self.step_timer.timed(self._update)
+        self.DeclarePeriodicUnrestrictedUpdateEvent(config.control_period_s, 0.0, update)
+        self.DeclareInitializationUnrestrictedUpdateEvent(update)  # valid output at t=0
         xd = {self.discrete_state_ticket(self._output_state)}
         self.DeclareVectorOutputPort(
             "body_wrench_desired", 6, lambda c, o: o.SetFromVector(self._held(c)[0:6]), xd

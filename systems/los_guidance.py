@@ -65,6 +65,7 @@ from rpod.models.los_corridor import VIOLATION_TOLERANCE_M, LosCorridor, sync_ra
 from rpod.planners.los_corridor_mpc import LosCorridorMpc, LosMpcSettings, MpcStatus
 from rpod.planners.los_prediction import BodyFrameStep, TargetState, cw_body_frame_matrices
 from rpod.systems.sensed import Sensed, declare_sensed_input
+from rpod.systems.step_timer import StepTimer
 
 
 class Regime(enum.IntEnum):
@@ -341,7 +342,10 @@ class LosGuidance(LeafSystem):
         self._held = self.DeclareDiscreteState(np.r_[np.zeros(6), -1, -1, 0, 0, 0])
         self._memory = self.DeclareDiscreteState(np.array([0, 0, 0, np.nan, 0, 0], dtype=float))
         self._plan = self.DeclareAbstractState(Value(np.zeros((0, 3))))
-        self.DeclarePeriodicUnrestrictedUpdateEvent(config.control_period_s, 0.0, self._update)
+        self.step_timer = StepTimer()  # the compute per control step (rpod.systems.step_timer)
+        self.DeclarePeriodicUnrestrictedUpdateEvent(
+            config.control_period_s, 0.0, self.step_timer.timed(self._update)
+        )
         held = {self.discrete_state_ticket(self._held)}
         self.DeclareVectorOutputPort(
             "acceleration_command_L",

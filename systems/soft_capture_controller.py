@@ -122,6 +122,7 @@ from rpod.planners.pointing import min_rotation
 from rpod.planners.soft_capture import PlanStatus, SoftCaptureConfig, SoftCapturePlanner
 from rpod.systems.plan_at_start import PlannedPath, declare_planned_path_output
 from rpod.systems.sensed import Sensed, declare_sensed_input
+from rpod.systems.step_timer import StepTimer
 
 # Controller modes (the ``controller_mode`` output, logged; MODES[code] is the name).
 MODES = ("tracking", "capture_hold", "fallback")
@@ -371,8 +372,10 @@ class SoftCaptureController(LeafSystem):
         self._held = self.DeclareDiscreteState(14)
         self._memory = self.DeclareAbstractState(Value[object](_Memory()))
         self._path = declare_planned_path_output(self)  # the active plan's knots
-        self.DeclarePeriodicUnrestrictedUpdateEvent(config.control_period_s, 0.0, self._update)
-        self.DeclareInitializationUnrestrictedUpdateEvent(self._update)  # plan at t0
+        self.step_timer = StepTimer()  # the compute per control step (rpod.systems.step_timer)
+        update = self.step_timer.timed(self._update)
+        self.DeclarePeriodicUnrestrictedUpdateEvent(config.control_period_s, 0.0, update)
+        self.DeclareInitializationUnrestrictedUpdateEvent(update)  # plan at t0
         xd = {self.discrete_state_ticket(self._held)}
         for name, start, size in (
             ("body_wrench_desired", 0, 6),

@@ -108,7 +108,12 @@ class CoupledNmpcPlugin(ControllerPlugin):
             STATUS_LOG_KEY: controller.GetOutputPort("nmpc_status"),
             "coupled_xi_T_m_s": controller.GetOutputPort("integral_state_T"),
         }
-        return ControllerWiring(controller, controller.GetOutputPort("thruster_forces_C"), logged)
+        return ControllerWiring(
+            controller,
+            controller.GetOutputPort("thruster_forces_C"),
+            logged,
+            step_timer=controller.step_timer,
+        )
 
     def command_period_s(self, config) -> float:
         """T_c: control_period_s, or T / N when it is 0 (config.period_s)."""
@@ -142,4 +147,7 @@ class CoupledNmpcPlugin(ControllerPlugin):
         added, gimbal, magnitude, wrench = coupled_log(scenario, controller.params, log)
         records = controller.solve_records(controller.GetMyContextFromRoot(context))
         summary = coupled_summary(records, log, added, gimbal, magnitude, wrench)
+        # The seam's names for every method (rpod.diagrams.controller_seam.ControllerResults).
+        summary["solver_failures"] = summary["nmpc_not_usable"]
+        summary["fallback_s"] = summary["nmpc_fallback_steps"] * scenario.controller.period_s()
         return ControllerResults(summary=summary, log=added, outcome=coupled_outcome(summary))

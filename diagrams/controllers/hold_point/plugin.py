@@ -53,7 +53,7 @@ class HoldPointPlugin(ControllerPlugin):
             name: controller.GetOutputPort(name)
             for name in ("body_wrench_desired", "hold_point_L", "reference_L")
         }
-        return ControllerWiring(controller, command, logged)
+        return ControllerWiring(controller, command, logged, step_timer=controller.step_timer)
 
     def results(self, scenario, wiring, context, log) -> ControllerResults:
         summary, outcome = hold_results(log)

@@ -162,6 +162,9 @@ def los_results(scenario, p_TH_T: np.ndarray, log: dict) -> tuple[dict, dict, Mi
         "los_final_hold_error_m": hold_distance,
         "los_qp_not_solved": not_solved,
         "los_fallback_steps": on_fallback,
+        # The seam's names for every method (rpod.diagrams.controller_seam.ControllerResults).
+        "solver_failures": not_solved,
+        "fallback_s": on_fallback * config.control_period_s,
         "los_fallback_previous_plan": int(np.count_nonzero(fallbacks == Fallback.PREVIOUS_PLAN)),
         "los_fallback_brake": int(np.count_nonzero(fallbacks == Fallback.BRAKE)),
         "los_fallback_far_command": int(np.count_nonzero(fallbacks == Fallback.NOMINAL)),

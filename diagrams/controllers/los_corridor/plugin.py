@@ -136,7 +136,7 @@ class LosCorridorPlugin(ControllerPlugin):
         command = guidance.GetOutputPort("acceleration_command_L")
         if config.actuation == "ideal":
             ideal = IdealCommand("acceleration", "L", "box", config.a_max_m_s2)
-            return ControllerWiring(guidance, command, logged, ideal)
+            return ControllerWiring(guidance, command, logged, ideal, guidance.step_timer)
         adapter = builder.AddNamedSystem(
             "acceleration_to_wrench",
             AccelerationToWrench(
@@ -149,7 +149,7 @@ class LosCorridorPlugin(ControllerPlugin):
         builder.Connect(sensed, adapter.GetInputPort(SENSED_PORT))
         wrench = adapter.GetOutputPort("body_wrench_desired")
         logged["body_wrench_desired"] = wrench
-        return ControllerWiring(guidance, wrench, logged)
+        return ControllerWiring(guidance, wrench, logged, step_timer=guidance.step_timer)
 
     def command_period_s(self, config) -> float:
         """The guidance's period on the ideal path; through thrusters, the acceleration-to-

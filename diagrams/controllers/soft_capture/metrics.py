@@ -17,8 +17,8 @@ import numpy as np
 from rpod.diagrams.controller_seam import MissionOutcome
 from rpod.diagrams.mission import judge_capture
 from rpod.models.frames import rotation_from_wxyz
+from rpod.systems.soft_capture_controller import MODE_FALLBACK, PLANNER_STATUSES
 from rpod.systems.soft_capture_controller import MODES as CONTROLLER_MODES
-from rpod.systems.soft_capture_controller import PLANNER_STATUSES
 
 
 def capture_outcome(log: dict, scenario) -> dict:
@@ -160,6 +160,14 @@ def soft_capture_results(scenario, records: list[dict], log: dict):
                 "initial_plan_check_passed": first.get("check_passed"),
                 "contact_after_capture": bool(capture["success"])
                 and math.isfinite(capture["contact_after_s"]),
+                # The seam's names for every method (rpod.diagrams.controller_seam.
+                # ControllerResults): planner calls without an accepted plan, and the time
+                # flown without a plan (zero wrench; to the log's period).
+                "solver_failures": sum(1 for r in records if not r["accepted"]),
+                "fallback_s": float(
+                    np.count_nonzero(extra_log["controller_mode"] == MODE_FALLBACK)
+                    * scenario.log_period_s
+                ),
             }
         )
     )

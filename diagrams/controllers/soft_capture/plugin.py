@@ -81,6 +81,7 @@ class SoftCapturePlugin(ControllerPlugin):
             controller,
             controller.GetOutputPort("body_wrench_desired"),
             {name: controller.GetOutputPort(name) for name in LOGGED},
+            step_timer=controller.step_timer,
         )
 
     def add_scene_extras(self, builder, meshcat, scenario, wiring, scene=None) -> None:
