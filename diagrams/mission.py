@@ -75,7 +75,8 @@ def judge_capture(t, distance, speed, separation, eps_p: float, eps_v: float) ->
     met = np.flatnonzero((distance <= eps_p) & (speed <= eps_v))
     contact = np.flatnonzero(~(np.asarray(separation, float) > 0.0))
     first_contact = int(contact[0]) if len(contact) else None
-    success = bool(len(met)) and (first_contact is None or first_contact > met[0])
+    # A Python bool (summary.json's): `first_contact > met[0]` alone is numpy's.
+    success = bool(len(met)) and bool(first_contact is None or first_contact > met[0])
     if success:
         i = int(met[0])
         reason = f"capture points within {eps_p} m and {eps_v} m/s, no contact before"
