@@ -2,7 +2,8 @@
 
 Owns: the mission success share of the campaign and of each group (with its Wilson 95 %
 interval), which the report leads with, then the safety figures (runs with contact of the true
-shapes, successes a controller claimed that contact overturned); per-group statistics (count,
+shapes, successes a controller claimed that contact overturned); for methods flying the same
+starts, their comparison (rpod.scenarios.comparison's tables and figures); per-group statistics (count,
 metric medians and 5th/95th percentiles), the simulation failures, the tables controller plug-ins add (e.g. soft capture beside paper 000),
 and the plots (one histogram per metric, with one series per group; and, for a
 campaign with a two-parameter grid, 2-D maps of the success rate and of each metric's median).
@@ -40,6 +41,7 @@ import numpy as np
 
 from rpod.diagrams import controller_seam
 from rpod.models.statistics import SuccessShare
+from rpod.scenarios.comparison import comparison_figures, comparison_lines
 from rpod.scenarios.loader import ScenarioFileError
 from rpod.scenarios.store import (
     ResultStore,
@@ -111,8 +113,12 @@ def _percent(k: int, n: int) -> str:
     return f"{k} ({100.0 * k / n:.1f} %)" if n else "--"
 
 
-def summary_text(meta: dict, rows: list[dict], metrics: list[str]) -> str:
-    """The report's tables as plain text: mission success first, then safety, then the rest."""
+def summary_text(
+    meta: dict, rows: list[dict], metrics: list[str], results_folder: str = "RESULTS"
+) -> str:
+    """The report's tables as plain text: mission success first, then safety, then, for a
+    campaign of methods flying the same starts, their comparison (rpod.scenarios.comparison;
+    its rerun commands name results_folder), then the rest."""
     groups = _groups(rows)
     finished = [r for r in rows if r["status"] != "pending"]
     judged = mission_share(rows).n
@@ -158,6 +164,7 @@ def summary_text(meta: dict, rows: list[dict], metrics: list[str]) -> str:
         group_rows,
         {1, 3, 4, 5},
     )
+    lines += comparison_lines(meta, rows, results_folder, _table)
 
     bools = {m for m in metrics if any(isinstance((r["metrics"] or {}).get(m), bool) for r in rows)}
     metric_rows = []
@@ -443,10 +450,11 @@ def write_report(results, out_dir=None, metrics: list[str] | None = None, overwr
     out_dir = pathlib.Path(out_dir) if out_dir else store_path(results).parent / "report"
     written = check_report_folder(out_dir, overwrite)
     make_folder(out_dir)
-    text = summary_text(meta, rows, names)
+    text = summary_text(meta, rows, names, str(store_path(results).parent))
     try:
         (out_dir / REPORT_TEXT).write_text("```\n" + text + "\n```\n")
-        plots = _histograms(rows, names, out_dir) + _grid_maps(meta, rows, names, out_dir)
+        plots = comparison_figures(rows, out_dir)
+        plots += _histograms(rows, names, out_dir) + _grid_maps(meta, rows, names, out_dir)
         for plugin in controller_seam.controller_plugins():  # e.g. a paper's figures
             plots += plugin.campaign_figures(rows, out_dir)
         written |= {REPORT_TEXT} | {pathlib.Path(plot).name for plot in plots}
