@@ -147,9 +147,10 @@ class ControllerResults:
         outcome: the mission outcome, or None when the controller has no mission criterion.
 
     Two summary entries mean the same for every method that has a solver, and the shoot-out
-    (rpod.scenarios.comparison) reads them: `solver_failures` (solver calls whose result was
-    not usable, or not accepted) and `fallback_s` (the time flown on a fallback instead of a
-    solution [s]). A method without a solver (a PD) leaves them out.
+    (rpod.scenarios.comparison) reads them: `solver_failures` (control steps or planner calls
+    where a solution was due and no solver gave a usable one) and `fallback_s` (the time flown
+    on any fallback instead of the method's nominal solution, designed fallbacks included
+    [s]). A method without a solver (a PD) leaves them out.
     """
 
     summary: dict = dataclasses.field(default_factory=dict)

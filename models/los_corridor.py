@@ -74,6 +74,19 @@ class LosCorridor:
         return self.A_c @ np.asarray(R_LT, dtype=float).T, self.b_c
 
 
+def corridor_frame_R_TK(axis_T) -> np.ndarray:
+    """R_TK of a corridor frame K whose +y_K is the unit `axis_T` (a docking axis in T): the
+    frame in which a corridor about any body axis is this module's cone about +y. x_K is the
+    T axis least aligned with the axis, made orthogonal to it; z_K = x_K x y_K. The identity
+    for axis_T = +y_T."""
+    y = np.asarray(axis_T, dtype=float)
+    y = y / np.linalg.norm(y)
+    hint = np.eye(3)[int(np.argmin(np.abs(y)))]  # x_T for +y_T (the first of a tie)
+    x = hint - (hint @ y) * y
+    x = x / np.linalg.norm(x)
+    return np.column_stack((x, y, np.cross(x, y)))
+
+
 def sync_range_m(a_max_m_s2: float, omega_t_rad_s: float) -> float:
     """r_sync = 2 a_max / omega_t^2 (eq. 14): beyond it, a chaser that brakes at a_max cannot
     take out the body frame's apparent speed omega_t r within the range r."""

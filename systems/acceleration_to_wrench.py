@@ -7,6 +7,10 @@ attitude fixed in L at the one it had at the first sample (an LVLH-held bus, the
 for a translation-only guidance law: the thrusters then see a slowly turning command).
 Does not own: the guidance (its command is an input), the allocation or the PWM.
 
+With `capture_point_C` given, the attitude is not held in L but pointed: the capture axis at
+the target's centre, the roll the target's (rpod.systems.capture_pointing), what flying the
+capture point onto a tumbling target's port needs (paper 004's guidance in the shoot-out).
+
 Sampled at `period_s` (the PWM period) and held: the allocator downstream runs once per period.
 The mass m is the chaser's nominal (initial) mass, as a flight law knows it: the propellant
 burned since shows up as a small thrust surplus, which the guidance's feedback absorbs.
@@ -23,6 +27,7 @@ from pydrake.systems.framework import LeafSystem
 
 from rpod.models.frames import rotation_from_wxyz
 from rpod.models.rigid_body import attitude_pd_torque
+from rpod.systems.capture_pointing import CapturePointing
 from rpod.systems.sensed import Sensed, declare_sensed_input
 
 
@@ -40,6 +45,7 @@ class AccelerationToWrench(LeafSystem):
         period_s: float,
         attitude_bandwidth_rad_s: float = 0.5,
         attitude_damping: float = 1.0,
+        capture_point_C=None,
     ):
         super().__init__()
         if not (
@@ -53,6 +59,11 @@ class AccelerationToWrench(LeafSystem):
         self._sensed_port = declare_sensed_input(self)
         self._wrench = self.DeclareDiscreteState(6)
         self._R_LC0 = self.DeclareAbstractState(Value(np.zeros((0, 3))))
+        self._pointing = None
+        if capture_point_C is not None:  # R_LC0's state keeps the last desired R_IC instead
+            self._pointing = CapturePointing(
+                capture_point_C, self._J, attitude_bandwidth_rad_s, attitude_damping, period_s
+            )
         self.DeclarePeriodicUnrestrictedUpdateEvent(period_s, 0.0, self._update)
         self.DeclareVectorOutputPort(
             "body_wrench_desired",
@@ -66,6 +77,21 @@ class AccelerationToWrench(LeafSystem):
         R_IL = rotation_from_wxyz(sensed.q_IL)
         R_IC = rotation_from_wxyz(sensed.q_IC)
         w_IC_C = np.asarray(sensed.w_IC_C, dtype=float)
+        a_L = np.asarray(self._command_port.Eval(context), dtype=float)
+        f_C = self._mass * (R_IC.T @ (R_IL @ a_L))
+        if self._pointing is not None:
+            p_L = np.asarray(sensed.p_LC_L, dtype=float)
+            tau_C, R_ICdes = self._pointing.torque(
+                R_IL,
+                p_L / max(np.linalg.norm(p_L), 1e-9),
+                rotation_from_wxyz(sensed.q_IT),
+                R_IC,
+                w_IC_C,
+                context.get_abstract_state(self._R_LC0).get_value(),
+            )
+            state.get_mutable_abstract_state(self._R_LC0).set_value(R_ICdes)
+            state.get_mutable_discrete_state(self._wrench).set_value(np.concatenate([tau_C, f_C]))
+            return
         R_LC0 = context.get_abstract_state(self._R_LC0).get_value()
         if R_LC0.size == 0:  # the attitude to hold: the one at the first sample
             R_LC0 = R_IL.T @ R_IC
@@ -75,6 +101,4 @@ class AccelerationToWrench(LeafSystem):
         e_C = error.axis() * error.angle()
         w_des_C = R_IC.T @ (R_IL @ np.asarray(sensed.w_IL_L, dtype=float))
         tau_C = attitude_pd_torque(self._J, e_C, w_des_C - w_IC_C, w_IC_C, self._w_a, self._zeta)
-        a_L = np.asarray(self._command_port.Eval(context), dtype=float)
-        f_C = self._mass * (R_IC.T @ (R_IL @ a_L))
         state.get_mutable_discrete_state(self._wrench).set_value(np.concatenate([tau_C, f_C]))

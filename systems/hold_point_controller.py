@@ -31,14 +31,13 @@ import math
 
 import numpy as np
 from pydrake.common.value import Value
-from pydrake.math import RotationMatrix
 from pydrake.systems.framework import LeafSystem
 
 from rpod.models.config import bounded, check_bounds, positive
 from rpod.models.cw import cw_acceleration
 from rpod.models.docking import DockingGeometry
 from rpod.models.frames import cross, rotation_from_wxyz
-from rpod.models.rigid_body import attitude_pd_torque
+from rpod.systems.capture_pointing import CapturePointing, unit
 from rpod.systems.sensed import Sensed, declare_sensed_input
 from rpod.systems.step_timer import StepTimer
 
@@ -91,10 +90,6 @@ class HoldPointControllerConfig:
         check_bounds(self)
 
 
-def _unit(v: np.ndarray) -> np.ndarray:
-    return v / np.linalg.norm(v)
-
-
 def _rotate_towards(u_from: np.ndarray, u_to: np.ndarray, max_angle: float) -> np.ndarray:
     """The unit vector at most max_angle from u_from on the great circle towards u_to."""
     angle = math.acos(min(max(float(u_from @ u_to), -1.0), 1.0))
@@ -103,18 +98,9 @@ def _rotate_towards(u_from: np.ndarray, u_to: np.ndarray, max_angle: float) -> n
     axis = cross(u_from, u_to)
     if np.linalg.norm(axis) < 1e-9:  # antiparallel: any perpendicular axis will do
         axis = cross(u_from, [1.0, 0.0, 0.0] if abs(u_from[0]) < 0.9 else [0.0, 1.0, 0.0])
-    axis = _unit(axis)
+    axis = unit(axis)
     c, s = math.cos(max_angle), math.sin(max_angle)
     return c * u_from + s * cross(axis, u_from)
-
-
-def _pointing_rotation(z_axis: np.ndarray, x_hint: np.ndarray, fallback: np.ndarray) -> np.ndarray:
-    """Rotation whose z column is z_axis and whose x column is x_hint made orthogonal to it."""
-    x = x_hint - (x_hint @ z_axis) * z_axis
-    if np.linalg.norm(x) < 1e-6:  # the hint is (anti)parallel to the axis: use the fallback
-        x = fallback - (fallback @ z_axis) * z_axis
-    x = _unit(x)
-    return np.column_stack((x, cross(z_axis, x), z_axis))
 
 
 class HoldPointController(LeafSystem):
@@ -143,9 +129,13 @@ class HoldPointController(LeafSystem):
         if config.capture:  # the capture point d beyond the port (the config's docstring)
             distance = distance + float(np.linalg.norm(capture_point_C))
         self._p_TH_T = docking.p_TD_T + distance * docking.axis_T
-        # R_CK: a fixed frame K in C whose z axis is the capture axis; the law points K.
-        capture_C = _unit(np.asarray(capture_point_C, float))  # the capture axis
-        self._R_CK = _pointing_rotation(capture_C, np.array([1.0, 0.0, 0.0]), np.eye(3)[1])
+        self._pointing = CapturePointing(
+            capture_point_C,
+            self._J,
+            config.attitude_bandwidth_rad_s,
+            config.attitude_damping,
+            config.control_period_s,
+        )
 
         self._sensed_port = declare_sensed_input(self)
 
@@ -212,18 +202,8 @@ class HoldPointController(LeafSystem):
         f_C = self._mass * (R_IC.T @ (R_IL @ a_L))  # paper 003 eq. 13
 
         # Attitude: capture axis at the target, roll following the target's x axis.
-        R_IKdes = _pointing_rotation(-(R_IL @ u_C), R_IT[:, 0], R_IT[:, 1])
-        R_ICdes = R_IKdes @ self._R_CK.T
         previous = context.get_abstract_state(self._previous_desired).get_value()
-        w_des_C = np.zeros(3)
-        if previous.size:
-            dR = RotationMatrix(previous.T @ R_ICdes).ToAngleAxis()
-            w_des_Cdes = dR.axis() * dR.angle() / cfg.control_period_s
-            w_des_C = R_IC.T @ R_ICdes @ w_des_Cdes
-        error = RotationMatrix(R_IC.T @ R_ICdes).ToAngleAxis()
-        e_C = error.axis() * error.angle()
-        w_a, zeta_a = cfg.attitude_bandwidth_rad_s, cfg.attitude_damping
-        tau_C = attitude_pd_torque(self._J, e_C, w_des_C - w_IC_C, w_IC_C, w_a, zeta_a)
+        tau_C, R_ICdes = self._pointing.torque(R_IL, u_C, R_IT, R_IC, w_IC_C, previous)
 
         state.get_mutable_discrete_state(self._output_state).set_value(
             np.concatenate([tau_C, f_C, p_H, p_R])

@@ -82,6 +82,7 @@ def add_los_corridor_to_scene(
     hold_point_rgba: Rgba = HOLD_POINT_RGBA,
     hold_point_radius_m: float | None = None,
     name: str = "los_corridor",
+    R_TK: np.ndarray | None = None,
 ) -> dict[str, GeometryId]:
     """Registers the corridor frustum, its edges and the hold point on the scene's target frame.
 
@@ -98,6 +99,8 @@ def add_los_corridor_to_scene(
         hold_point_rgba: the hold point sphere's colour.
         hold_point_radius_m: the sphere's radius; default max(0.3, 0.015 length_m) [m].
         name: the geometry names' stem, unique on the target frame.
+        R_TK: the corridor's frame K in T when its axis is not +y_T (rpod.models.los_corridor.
+            corridor_frame_R_TK); the frustum is drawn about +y_K.
 
     Returns:
         The GeometryIds by name: `name`, `name + "_edge_<k>"` (k = 0..n_f-1), `name +
@@ -107,6 +110,8 @@ def add_los_corridor_to_scene(
     if p_TH_T.shape != (3,) or not np.all(np.isfinite(p_TH_T)):
         raise ValueError(f"p_TH_T must be 3 finite numbers, got {p_TH_T}")
     vertices_T = los_corridor_frustum_vertices(corridor, length_m)
+    if R_TK is not None:
+        vertices_T = vertices_T @ np.asarray(R_TK, dtype=float).T
     mesh = InMemoryMesh(mesh_file=MemoryFile(convex_hull_obj(vertices_T), ".obj", f"{name}.obj"))
     ids = {name: scene.RegisterTargetGeometry(name, Convex(mesh), RigidTransform(), rgba)}
 

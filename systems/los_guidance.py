@@ -60,7 +60,7 @@ from pydrake.systems.framework import EventStatus, LeafSystem
 
 from rpod.models.config import ConfigError, bounded, check_bounds, count, positive
 from rpod.models.cw import cw_acceleration
-from rpod.models.frames import cross, rotation_from_wxyz
+from rpod.models.frames import cross, quaternion_wxyz, rotation_from_wxyz
 from rpod.models.los_corridor import VIOLATION_TOLERANCE_M, LosCorridor, sync_range_m
 from rpod.planners.los_corridor_mpc import LosCorridorMpc, LosMpcSettings, MpcStatus
 from rpod.planners.los_prediction import BodyFrameStep, TargetState, cw_body_frame_matrices
@@ -119,6 +119,12 @@ class LosGuidanceConfig:
         prediction: the MPC's model: 'online' (exact Jacobian of the Sec. 4.4 step) or 'cw'.
         time_varying_model: one model per predicted step along the predicted attitude.
         substeps: RK4 steps per control step of the online model.
+        skip_hard_qp_outside: while the chaser is further outside the corridor than one
+            control step can carry it (|v_T| dt + a_max dt^2 sqrt(3) / 2), do not solve the hard
+            QP, which is infeasible there (11d at j = 1 cannot be met), and go on as if it had
+            failed (the best-effort QP, else the fallback chain). rpod's, not the paper's
+            (False: its chain): the shoot-out's starts, mostly outside the corridor, ran the
+            hard QP to OSQP's iteration limit every step (~200 ms a step).
         mpc: horizon, weights and tolerances of eq. 11 (its a_max_m_s2 is a_max_m_s2 above:
             leave it out).
 
@@ -152,6 +158,7 @@ class LosGuidanceConfig:
     prediction: str = "online"
     time_varying_model: bool = False
     substeps: int = count(2, 1, 100)
+    skip_hard_qp_outside: bool = False
     mpc: LosMpcSettings = dataclasses.field(default_factory=LosMpcSettings)
 
     def corridor(self) -> LosCorridor:
@@ -308,16 +315,26 @@ class LosGuidance(LeafSystem):
         inertia_T: np.ndarray,
         gravity: str,
         keep_out_m: float = 0.0,
+        R_TK: np.ndarray | None = None,
     ):
         """Args: the config; the target's inertia (the prediction's tumble); the truth's
         gravity ('two_body' | 'two_body_j2'); keep_out_m: the radius about the target that the
         best-effort QP keeps every predicted position beyond, at least the corridor's floor
-        (rpod.planners.los_corridor_mpc) [m]."""
+        (rpod.planners.los_corridor_mpc) [m]; R_TK: the corridor's frame K in T (its +y_K the
+        corridor's axis, its origin T's), None for T itself (the paper's +y_T). The guidance
+        works in K throughout: the sensed target attitude becomes K's (q_IK = q_IT R_TK,
+        w_IK_K = R_KT w_IT_T) and the inertia K's; what this docstring and the module call
+        T is K. K is fixed in the body, so the body-frame dynamics keep their form."""
         super().__init__()
         config.validate()
         self.config = config
         self.corridor = config.corridor()
-        self.p_TH_T = np.array([0.0, config.hold_distance_m, 0.0])
+        self.R_TK = None if R_TK is None else np.asarray(R_TK, dtype=float)
+        self._p_KH_K = np.array([0.0, config.hold_distance_m, 0.0])
+        # H in T itself (what the scene, the metrics and the figures read).
+        self.p_TH_T = self._p_KH_K if self.R_TK is None else self.R_TK @ self._p_KH_K
+        if self.R_TK is not None:
+            inertia_T = self.R_TK.T @ np.asarray(inertia_T, float) @ self.R_TK
         A_c = self.corridor.A_c
         self._row_norms = np.linalg.norm(A_c, axis=1)
         settings = config.mpc_settings()
@@ -368,11 +385,21 @@ class LosGuidance(LeafSystem):
     def _held_value(self, context) -> np.ndarray:
         return context.get_discrete_state(self._held).get_value()
 
+    def _sensed(self, context) -> Sensed:
+        """The sensed bundle with the target's attitude that of the corridor frame K."""
+        sensed = Sensed.from_vector(self._sensed_port.Eval(context))
+        if self.R_TK is None:
+            return sensed
+        vector = np.array(sensed.vector, dtype=float)
+        vector[13:17] = quaternion_wxyz(rotation_from_wxyz(sensed.q_IT) @ self.R_TK)
+        vector[17:20] = self.R_TK.T @ np.asarray(sensed.w_IT_T, dtype=float)
+        return Sensed.from_vector(vector)
+
     def _view(self, context) -> BodyFrameView:
-        return BodyFrameView.from_sensed(Sensed.from_vector(self._sensed_port.Eval(context)))
+        return BodyFrameView.from_sensed(self._sensed(context))
 
     def _calc_hold_point(self, context, output) -> None:
-        output.SetFromVector(self._view(context).R_LT @ self.p_TH_T)
+        output.SetFromVector(self._view(context).R_LT @ self._p_KH_K)
 
     def _calc_face_distance(self, context, output) -> None:
         output.SetFromVector(self.corridor.slack(self._view(context).p_T) / self._row_norms)
@@ -392,10 +419,10 @@ class LosGuidance(LeafSystem):
         """The close approach's x_ref in T: a point on the way to H at most reference_lead_s of
         travel ahead, moving toward H as the PD would move it (module docstring)."""
         config = self.config
-        error = self.p_TH_T - view.p_T
+        error = self._p_KH_K - view.p_T
         distance = float(np.linalg.norm(error))
         if distance < 1e-9:
-            return np.concatenate([self.p_TH_T, np.zeros(3)])
+            return np.concatenate([self._p_KH_K, np.zeros(3)])
         speed = min(speed_limit, config.v_max_m_s, math.sqrt(config.a_max_m_s2 * distance))
         ahead = min(distance, speed * config.reference_lead_s)
         direction = error / distance
@@ -404,6 +431,14 @@ class LosGuidance(LeafSystem):
         gain = config.bandwidth_rad_s / (2 * config.damping)
         v_ref = _saturate(gain * (distance - ahead) * direction, speed)
         return np.concatenate([view.p_T + ahead * direction, v_ref])
+
+    def _beyond_one_step(self, view: BodyFrameView) -> bool:
+        """Whether the chaser is further outside the corridor than one control step can carry
+        it (the config's skip_hard_qp_outside)."""
+        dt, a_max = self.config.control_period_s, self.config.a_max_m_s2
+        outside = -float(np.min(self.corridor.slack(view.p_T) / self._row_norms))
+        reach = float(np.linalg.norm(view.v_T)) * dt + 0.5 * math.sqrt(3.0) * a_max * dt * dt
+        return outside > reach
 
     def _last_resort(self, view: BodyFrameView, mode: Regime, u_nom) -> tuple:
         """(command, Fallback) when there is no plan to follow (module docstring): the brake
@@ -417,13 +452,13 @@ class LosGuidance(LeafSystem):
 
     def _update(self, context, state) -> None:
         config, t = self.config, context.get_time()
-        sensed = Sensed.from_vector(self._sensed_port.Eval(context))
+        sensed = self._sensed(context)
         view = BodyFrameView.from_sensed(sensed)
         memory = context.get_discrete_state(self._memory).get_value().copy()
         u_prev, rho_ref, holding, plan_age = memory[0:3], memory[3], memory[4] > 0, memory[5]
         omega = float(np.linalg.norm(sensed.w_IT_T))  # the tumble rate omega_t (eq. 14)
         r_sync = sync_range_m(config.a_max_m_s2, omega) if omega > 0 else math.inf
-        mode = regime(view, self.p_TH_T, r_sync, holding, config)
+        mode = regime(view, self._p_KH_K, r_sync, holding, config)
 
         # The reference: H, or far out the spiral's point on the corridor axis.
         v_achv = min(config.a_max_m_s2 * t / 2.0, config.v_max_m_s)
@@ -435,7 +470,7 @@ class LosGuidance(LeafSystem):
             p_ref_T = np.array([0.0, rho_ref, 0.0])
             x_ref = np.concatenate([p_ref_T, v_ref_T])
         else:
-            p_ref_T = self.p_TH_T
+            p_ref_T = self._p_KH_K
             x_ref = np.concatenate([p_ref_T, v_ref_T])
             if mode is Regime.CLOSE:
                 x_ref = self._approach_reference(view, max(v_achv, 1e-3))
@@ -448,15 +483,18 @@ class LosGuidance(LeafSystem):
         else:
             x_T = np.concatenate([view.p_T, view.v_T])
             A_d, B_d = self._model(sensed, x_T)
-            result = self._mpc.solve(x_T, x_ref, u_prev, A_d, B_d, u_nom=u_nom)
-            status_code = MPC_STATUS_CODES[result.status]
-            iterations, solve_time = result.iterations, result.solve_time_s
+            result = None
+            if not (config.skip_hard_qp_outside and self._beyond_one_step(view)):
+                result = self._mpc.solve(x_T, x_ref, u_prev, A_d, B_d, u_nom=u_nom)
+                status_code = MPC_STATUS_CODES[result.status]
+                iterations, solve_time = result.iterations, result.solve_time_s
+            solved = result is not None and result.solved
             best = None
-            if not result.solved and self._best_effort is not None and mode is not Regime.FAR:
+            if not solved and self._best_effort is not None and mode is not Regime.FAR:
                 best = self._best_effort.solve(x_T, x_ref, u_prev, A_d, B_d, u_nom=u_nom)
                 iterations += best.iterations
                 solve_time += best.solve_time_s
-            if result.solved:
+            if solved:
                 command, plan, plan_age = result.u0, result.u, 0
             elif best is not None and best.solved:
                 command, plan, plan_age = best.u0, best.u, 0

@@ -10,6 +10,7 @@ from pydrake.math import RollPitchYaw, RotationMatrix
 from rpod.models.los_corridor import (
     LosCorridor,
     body_relative_state,
+    corridor_frame_R_TK,
     holding_range_m,
     suggested_hold_distance_m,
     sync_range_m,
@@ -111,3 +112,15 @@ def test_the_holding_range_is_where_the_centripetal_acceleration_uses_the_whole_
     # The suggested hold point uses half of it (the 5 deg/s, 0.05 m/s^2: 3.28 m).
     assert suggested_hold_distance_m(a_max, omega) == pytest.approx(r_hold / 2, rel=1e-12)
     assert round(suggested_hold_distance_m(a_max, omega), 2) == 3.28
+
+
+@pytest.mark.parametrize("axis", [[0, 1, 0], [0, 0, 1], [1, 0, 0], [0, -1, 0], [1, 2, -3]])
+def test_the_corridor_frame_is_a_rotation_whose_y_is_the_axis(axis):
+    R_TK = corridor_frame_R_TK(axis)
+    assert np.allclose(R_TK.T @ R_TK, np.eye(3), atol=1e-15)
+    assert np.isclose(np.linalg.det(R_TK), 1.0)
+    assert np.allclose(R_TK[:, 1], np.asarray(axis) / np.linalg.norm(axis))
+
+
+def test_the_corridor_frame_of_plus_y_is_t_itself():
+    assert np.array_equal(corridor_frame_R_TK([0.0, 1.0, 0.0]), np.eye(3))

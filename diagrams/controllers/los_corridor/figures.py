@@ -12,6 +12,9 @@ Log keys (N samples, time first; any may be missing; in L unless named otherwise
   los_range_m (N)              |p_TC| [m].
   los_sync_range_m (N)         r_sync = 2 a_max / omega_t^2 (eq. 14) [m].
   los_hold_point_T (N, 3)      the hold point H in T [m].
+  los_R_TK (N, 9)              the corridor's frame K in T, row-major, when its axis is not
+                               +y_T (`corridor_axis: docking`): los_body_frame.png is then
+                               drawn in K (its +y the docking axis).
   los_face_distance_m (N, n_f + 1)  signed distance to each corridor plane, faces 1..n_f then
                                the floor, positive inside [m] (n_f = 8 in paper 004; >= 3).
   los_command_L (N, 3)         the command the guidance applied (MPC u_0 or a fallback) [m/s^2].
@@ -360,6 +363,10 @@ def figure_los_body_frame(log: RunLog, title: str) -> Figure | None:
     p = log.p_TC_T()
     if not (_is_los_run(log) and has_finite(p)):
         return None
+    R_TK = log.get("los_R_TK")  # a corridor about another axis: drawn in its frame K
+    if R_TK is not None:
+        R_TK = R_TK[0].reshape(3, 3)
+        p = p @ R_TK
     default = LosCorridor()
     alpha_deg = constant_value(log.get("los_half_angle_deg"))
     alpha_label = "α_c = {:.3g}°"
@@ -373,13 +380,15 @@ def figure_los_body_frame(log: RunLog, title: str) -> Figure | None:
             alpha_label += " (assumed: not logged)"
     faces = _face_distances(log)
     floor_y = _floor_y(p, faces)
-    floor_label = "floor y_T = {:.3g} m"
+    floor_label = "floor y_" + ("T" if R_TK is None else "K") + " = {:.3g} m"
     if floor_y is None:
         floor_y, floor_label = default.floor_m, floor_label + " (assumed: not logged)"
     n_f = faces.shape[1] - 1 if faces is not None else default.faces
     slopes = section_slopes(math.radians(alpha_deg), n_f)
     hold = log.get("los_hold_point_T")
     holds = hold_points(hold) if hold is not None else np.empty((0, 3))
+    if R_TK is not None:
+        holds = holds @ R_TK
     violating = (
         np.fmin.reduce(faces, axis=1) < -VIOLATION_TOLERANCE_M
         if faces is not None
@@ -393,7 +402,12 @@ def figure_los_body_frame(log: RunLog, title: str) -> Figure | None:
     fig.suptitle(
         figure_title(
             title,
-            "Chaser in the target body frame T with the LOS corridor (axis +y_T): "
+            (
+                "Chaser in the target body frame T with the LOS corridor (axis +y_T): "
+                if R_TK is None
+                else "Chaser in the corridor frame K (+y_K the docking axis) with the LOS "
+                "corridor: "
+            )
             + alpha_label.format(alpha_deg)
             + ", "
             + floor_label.format(floor_y)
@@ -401,7 +415,8 @@ def figure_los_body_frame(log: RunLog, title: str) -> Figure | None:
         )
     )
     gs = grid(fig, 1, 2, right=0.2, bottom=0.6, top=0.75, wspace=0.22)
-    for col, (i_h, name) in enumerate(((0, "x_T"), (2, "z_T"))):
+    f = "T" if R_TK is None else "K"  # the frame drawn
+    for col, (i_h, name) in enumerate(((0, f"x_{f}"), (2, f"z_{f}"))):
         ax = fig.add_subplot(gs[0, col])
         h, v = p[:, i_h], p[:, 1]
         # The corridor's section by this plane: the floor up to y_top, between the two faces.
@@ -449,11 +464,11 @@ def figure_los_body_frame(log: RunLog, title: str) -> Figure | None:
                 zorder=5,
             )
         ax.set_xlabel(f"{name} [m]")
-        ax.set_ylabel("y_T (docking axis) [m]")
+        ax.set_ylabel(f"y_{f} (docking axis) [m]")
         ax.set_aspect("equal", adjustable="datalim")
         ax.grid(True, alpha=0.3)
-        cut = "z_T = 0" if i_h == 0 else "x_T = 0"
-        ax.set_title(f"{name}-y_T plane, with the corridor's section by {cut}", fontsize=10)
+        cut = f"z_{f} = 0" if i_h == 0 else f"x_{f} = 0"
+        ax.set_title(f"{name}-y_{f} plane, with the corridor's section by {cut}", fontsize=10)
         if col == 0:
             ax.legend(loc="best", fontsize=8)
     return fig

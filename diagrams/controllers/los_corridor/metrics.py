@@ -100,9 +100,10 @@ def _sync_range_m(scenario) -> float:
     return sync_range_m(scenario.controller.a_max_m_s2, omega) if omega > 0 else math.inf
 
 
-def los_log(scenario, p_TH_T: np.ndarray, log: dict) -> dict:
+def los_log(scenario, p_TH_T: np.ndarray, log: dict, R_TK=None) -> dict:
     """The arrays added to log.npz (figures.py documents each): the raw status vector split
-    (and removed: None), the range in T, the constant levels, the applied acceleration."""
+    (and removed: None), the range in T, the constant levels, the applied acceleration, and
+    with a corridor about another axis than +y_T its frame (R_TK, row-major, per sample)."""
     config = scenario.controller
     status = log[STATUS_LOG_KEY]
     n = len(log["t"])
@@ -119,14 +120,18 @@ def los_log(scenario, p_TH_T: np.ndarray, log: dict) -> dict:
     out["los_a_max_m_s2"] = np.full(n, config.a_max_m_s2)
     out["los_half_angle_deg"] = np.full(n, config.half_angle_deg)
     out["los_applied_L"] = applied_acceleration_L(log)
+    if R_TK is not None:
+        out["los_R_TK"] = np.tile(np.asarray(R_TK, dtype=float).reshape(9), (n, 1))
     return out
 
 
-def los_results(scenario, p_TH_T: np.ndarray, log: dict) -> tuple[dict, dict, MissionOutcome]:
+def los_results(
+    scenario, p_TH_T: np.ndarray, log: dict, R_TK=None
+) -> tuple[dict, dict, MissionOutcome]:
     """(log additions, summary.json's entries, mission outcome) of a finished run (module
     docstring); `log` is read, never changed."""
     config = scenario.controller
-    out = los_log(scenario, p_TH_T, log)
+    out = los_log(scenario, p_TH_T, log, R_TK)
     t = log["t"]
     regime = out["los_regime"]
     p_T = chaser_in_target_frame(log["q_IT"], log["q_IL"], log["p_LC_L"])
@@ -162,8 +167,13 @@ def los_results(scenario, p_TH_T: np.ndarray, log: dict) -> tuple[dict, dict, Mi
         "los_final_hold_error_m": hold_distance,
         "los_qp_not_solved": not_solved,
         "los_fallback_steps": on_fallback,
-        # The seam's names for every method (rpod.diagrams.controller_seam.ControllerResults).
-        "solver_failures": not_solved,
+        # The seam's names for every method (rpod.diagrams.controller_seam.ControllerResults):
+        # steps that no QP gave an input where one was due (the hard QP's failure outside the
+        # corridor is answered by the best-effort QP, and far out by the far command, as
+        # designed: those are fallbacks, not failures), and the time on any fallback.
+        "solver_failures": int(
+            np.count_nonzero((fallbacks == Fallback.PREVIOUS_PLAN) | (fallbacks == Fallback.BRAKE))
+        ),
         "fallback_s": on_fallback * config.control_period_s,
         "los_fallback_previous_plan": int(np.count_nonzero(fallbacks == Fallback.PREVIOUS_PLAN)),
         "los_fallback_brake": int(np.count_nonzero(fallbacks == Fallback.BRAKE)),

@@ -10,6 +10,7 @@ Does not own: the config (config.py), the guidance (systems/los_guidance.py), th
 model (rpod.models.los_corridor) or the MPC (rpod.planners.los_corridor_mpc).
 """
 
+import dataclasses
 import math
 
 import numpy as np
@@ -25,7 +26,11 @@ from rpod.diagrams.controllers.los_corridor import tables
 from rpod.diagrams.controllers.los_corridor.config import THRUSTER_PERIOD_S, LosCorridor
 from rpod.diagrams.controllers.los_corridor.metrics import STATUS_LOG_KEY, los_results
 from rpod.diagrams.scenario import ScenarioError, body_polytopes
-from rpod.models.los_corridor import holding_range_m, suggested_hold_distance_m
+from rpod.models.los_corridor import (
+    corridor_frame_R_TK,
+    holding_range_m,
+    suggested_hold_distance_m,
+)
 from rpod.systems.acceleration_to_wrench import AccelerationToWrench
 from rpod.systems.los_guidance import LosGuidance
 from rpod.systems.sensed import SENSED_PORT
@@ -43,7 +48,25 @@ LOG_SHAPES = {  # the keys the figures read (figures.py documents each)
     "los_fallback": None,
     "los_a_max_m_s2": None,
     "los_half_angle_deg": None,
+    "los_R_TK": 9,
 }
+
+
+def guidance_geometry(config, scenario):
+    """(the guidance's config, R_TK or None): with `corridor_axis: docking` the corridor's frame
+    about the docking axis; with `capture` the hold distance from the target's centre at which
+    the capture point is hold_distance_m beyond the port (config.py)."""
+    if config.corridor_axis == "y_T":
+        return config, None
+    axis = np.asarray(scenario.target.docking_axis_T, dtype=float)
+    axis = axis / np.linalg.norm(axis)
+    R_TK = corridor_frame_R_TK(axis)
+    if not config.capture:
+        return config, R_TK
+    port_up = float(np.asarray(scenario.target.docking_port_T, dtype=float) @ axis)
+    reach = float(np.linalg.norm(scenario.chaser.capture_point_C))
+    hold = port_up + config.hold_distance_m + reach
+    return dataclasses.replace(config, hold_distance_m=hold, capture=False), R_TK
 
 
 def _bounding_radius_sum_m(scenario) -> float:
@@ -87,6 +110,21 @@ class LosCorridorPlugin(ControllerPlugin):
                 "controller.control_period_s",
                 f"with thrusters it must be a multiple of the {THRUSTER_PERIOD_S} s PWM period",
             )
+        if config.corridor_axis == "docking":
+            port = np.asarray(scenario.target.docking_port_T, dtype=float)
+            axis = np.asarray(scenario.target.docking_axis_T, dtype=float)
+            axis = axis / np.linalg.norm(axis)
+            up = float(port @ axis)
+            if np.linalg.norm(port - up * axis) > 1e-6 * (1.0 + np.linalg.norm(port)) or up < 0:
+                raise ScenarioError(
+                    "target.docking_port_T",
+                    "controller.corridor_axis: docking puts the corridor's apex at the target's "
+                    "centre: the port must lie on the docking axis through it, on its + side",
+                )
+        if config.capture and not np.linalg.norm(scenario.chaser.capture_point_C) > 0:
+            raise ScenarioError(
+                "chaser.capture_point_C", "controller.capture needs a capture point off the centre"
+            )
 
     def load_warnings(self, config, scenario) -> list[str]:
         """A hold point the box cannot hold at rest in the tumbling frame (omega_t^2 |p_TH| >
@@ -94,7 +132,7 @@ class LosCorridorPlugin(ControllerPlugin):
         omega = float(np.linalg.norm(np.radians(scenario.target.w_IT_T_deg_s)))
         if omega == 0.0:
             return []
-        a_max, hold = config.a_max_m_s2, config.hold_distance_m
+        a_max, hold = config.a_max_m_s2, guidance_geometry(config, scenario)[0].hold_distance_m
         r_hold = holding_range_m(a_max, omega)
         if hold <= r_hold:
             return []
@@ -116,13 +154,15 @@ class LosCorridorPlugin(ControllerPlugin):
 
     def add_to_diagram(self, builder, scenario, sensed) -> ControllerWiring:
         config = scenario.controller
+        guidance_config, R_TK = guidance_geometry(config, scenario)
         guidance = builder.AddNamedSystem(
             self.system_name,
             LosGuidance(
-                config,
+                guidance_config,
                 np.asarray(scenario.target.inertia_kg_m2),
                 scenario.orbit.gravity,
                 keep_out_m=_bounding_radius_sum_m(scenario),
+                R_TK=R_TK,
             ),
         )
         builder.Connect(sensed, guidance.GetInputPort(SENSED_PORT))
@@ -143,6 +183,7 @@ class LosCorridorPlugin(ControllerPlugin):
                 scenario.chaser.mass_kg,
                 np.asarray(scenario.chaser.inertia_kg_m2),
                 THRUSTER_PERIOD_S,
+                capture_point_C=scenario.chaser.capture_point_C if config.capture else None,
             ),
         )
         builder.Connect(command, adapter.GetInputPort("acceleration_command_L"))
@@ -163,7 +204,11 @@ class LosCorridorPlugin(ControllerPlugin):
 
         guidance = wiring.system
         add_los_corridor_to_scene(
-            scene, guidance.corridor, scenario.controller.drawn_length_m, guidance.p_TH_T
+            scene,
+            guidance.corridor,
+            scenario.controller.drawn_length_m,
+            guidance.p_TH_T,
+            R_TK=guidance.R_TK,
         )
 
     def campaign_table(self, rows):
@@ -172,5 +217,6 @@ class LosCorridorPlugin(ControllerPlugin):
 
     def results(self, scenario, wiring, context, log) -> ControllerResults:
         """metrics.py's arrays (the raw status vector split and dropped), summary and outcome."""
-        added, summary, outcome = los_results(scenario, wiring.system.p_TH_T, log)
+        guidance = wiring.system
+        added, summary, outcome = los_results(scenario, guidance.p_TH_T, log, guidance.R_TK)
         return ControllerResults(summary=summary, log=added, outcome=outcome)
