@@ -390,10 +390,10 @@ class LosGuidance(LeafSystem):
         sensed = Sensed.from_vector(self._sensed_port.Eval(context))
         if self.R_TK is None:
             return sensed
-        vector = np.array(sensed.vector, dtype=float)
-        vector[13:17] = quaternion_wxyz(rotation_from_wxyz(sensed.q_IT) @ self.R_TK)
-        vector[17:20] = self.R_TK.T @ np.asarray(sensed.w_IT_T, dtype=float)
-        return Sensed.from_vector(vector)
+        return sensed.with_target_attitude(
+            quaternion_wxyz(rotation_from_wxyz(sensed.q_IT) @ self.R_TK),
+            self.R_TK.T @ np.asarray(sensed.w_IT_T, dtype=float),
+        )
 
     def _view(self, context) -> BodyFrameView:
         return BodyFrameView.from_sensed(self._sensed(context))

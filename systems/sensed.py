@@ -58,6 +58,13 @@ class Sensed:
     q_IL = property(lambda self: self.vector[_SLICES["q_IL"]])
     w_IL_L = property(lambda self: self.vector[_SLICES["w_IL_L"]])
     target_attitude = property(lambda self: self.vector[_SLICES["target_attitude"]])
+
+    def with_target_attitude(self, q_IT, w_IT_T) -> "Sensed":
+        """A copy whose target attitude and rate are these (e.g. a body-fixed frame's)."""
+        vector = np.array(self.vector, dtype=float)
+        vector[_SLICES["target_attitude"]] = np.concatenate([q_IT, w_IT_T])
+        return Sensed(vector)
+
     q_IT = property(lambda self: self.vector[13:17])
     w_IT_T = property(lambda self: self.vector[17:20])
     chaser_attitude = property(lambda self: self.vector[_SLICES["chaser_attitude"]])
