@@ -3,7 +3,8 @@
 Owns: finding the methods of a campaign whose cases fly the same sampled starts (common random
 numbers), their two columns (truth-fed, and on the navigation's estimate), and what `rpod
 report` says of them: success with its Wilson interval (overall and up to TUMBLE_SPLIT_DEG_S),
-delta-v, time to capture, least clearance, corridor exits, solver failures and fallbacks,
+delta-v, time to capture, least clearance, exits from the task's docking cone, solver failures
+and fallbacks,
 compute per control step and real-time factor; every failed run's class; the starts on which
 methods disagree, each with a rerunnable case; the figures (success against tumble rate and
 against start range, delta-v against range).
@@ -347,7 +348,7 @@ def comparison_lines(meta: dict, rows: list[dict], results_folder: str, table) -
             "dv p90 m/s",
             "capture s",
             "least clearance m",
-            "corridor left",
+            "cone left",
             "solver failed",
             "fallback",
             "step p50 ms",
@@ -360,8 +361,11 @@ def comparison_lines(meta: dict, rows: list[dict], results_folder: str, table) -
     lines += [
         "",
         (
-            "(corridor left, solver failed, fallback: runs; -- where the method has no such "
-            "figure; step: compute per control step, medians over runs of each run's p50 and p99)"
+            "(cone left, solver failed, fallback: runs; -- where the method has no such figure. "
+            "cone left: runs outside the task's docking cone (target.corridor_half_angle_deg "
+            "about the port's axis, within target.corridor_length_m; summary "
+            "max_corridor_violation_deg > 0), the same cone for every method. step: compute per "
+            "control step, medians over runs of each run's p50 and p99)"
         ),
         "",
         "Failed runs by class (rpod.scenarios.comparison):",
