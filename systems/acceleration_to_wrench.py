@@ -32,7 +32,8 @@ from rpod.systems.sensed import Sensed, declare_sensed_input
 
 
 class AccelerationToWrench(LeafSystem):
-    """a_L command -> desired body wrench [tau_C; f_C], attitude held in L (module docstring).
+    """a_L command -> desired body wrench [tau_C; f_C], the attitude held in L or, with
+    capture_point_C, pointed at the target (module docstring).
 
     Input ports: acceleration_command_L (3) [m/s^2], sensed (33).
     Output port: body_wrench_desired (6) [N m; N], held between samples.
@@ -60,7 +61,8 @@ class AccelerationToWrench(LeafSystem):
         self._wrench = self.DeclareDiscreteState(6)
         self._R_LC0 = self.DeclareAbstractState(Value(np.zeros((0, 3))))
         self._pointing = None
-        if capture_point_C is not None:  # R_LC0's state keeps the last desired R_IC instead
+        if capture_point_C is not None:
+            self._R_ICdes = self.DeclareAbstractState(Value(np.zeros(0)))  # the last desired
             self._pointing = CapturePointing(
                 capture_point_C, self._J, attitude_bandwidth_rad_s, attitude_damping, period_s
             )
@@ -87,9 +89,9 @@ class AccelerationToWrench(LeafSystem):
                 rotation_from_wxyz(sensed.q_IT),
                 R_IC,
                 w_IC_C,
-                context.get_abstract_state(self._R_LC0).get_value(),
+                context.get_abstract_state(self._R_ICdes).get_value(),
             )
-            state.get_mutable_abstract_state(self._R_LC0).set_value(R_ICdes)
+            state.get_mutable_abstract_state(self._R_ICdes).set_value(R_ICdes)
             state.get_mutable_discrete_state(self._wrench).set_value(np.concatenate([tau_C, f_C]))
             return
         R_LC0 = context.get_abstract_state(self._R_LC0).get_value()
