@@ -42,6 +42,20 @@ def cross(a, b) -> np.ndarray:
     return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
 
 
+def rotate_towards(u_from: np.ndarray, u_to: np.ndarray, max_angle: float) -> np.ndarray:
+    """The unit vector at most max_angle [rad] from the unit vector u_from on the great circle
+    towards the unit vector u_to (u_to itself when it is nearer)."""
+    angle = math.acos(min(max(float(u_from @ u_to), -1.0), 1.0))
+    if angle <= max_angle:
+        return u_to
+    axis = cross(u_from, u_to)
+    if np.linalg.norm(axis) < 1e-9:  # antiparallel: any perpendicular axis will do
+        axis = cross(u_from, [1.0, 0.0, 0.0] if abs(u_from[0]) < 0.9 else [0.0, 1.0, 0.0])
+    axis = axis / np.linalg.norm(axis)
+    c, s = math.cos(max_angle), math.sin(max_angle)
+    return c * u_from + s * cross(axis, u_from)
+
+
 def skew(w) -> np.ndarray:
     """[w]x (3, 3), the cross-product matrix of a 3-vector: skew(w) @ v = w x v.
 

@@ -36,8 +36,8 @@ from pydrake.systems.framework import LeafSystem
 from rpod.models.config import bounded, check_bounds, positive
 from rpod.models.cw import cw_acceleration
 from rpod.models.docking import DockingGeometry
-from rpod.models.frames import cross, rotation_from_wxyz
-from rpod.systems.capture_pointing import CapturePointing, unit
+from rpod.models.frames import cross, rotate_towards, rotation_from_wxyz
+from rpod.systems.capture_pointing import CapturePointing
 from rpod.systems.sensed import Sensed, declare_sensed_input
 from rpod.systems.step_timer import StepTimer
 
@@ -88,19 +88,6 @@ class HoldPointControllerConfig:
     def validate(self) -> None:
         """Raises ConfigError naming the first field outside its declared bounds."""
         check_bounds(self)
-
-
-def _rotate_towards(u_from: np.ndarray, u_to: np.ndarray, max_angle: float) -> np.ndarray:
-    """The unit vector at most max_angle from u_from on the great circle towards u_to."""
-    angle = math.acos(min(max(float(u_from @ u_to), -1.0), 1.0))
-    if angle <= max_angle:
-        return u_to
-    axis = cross(u_from, u_to)
-    if np.linalg.norm(axis) < 1e-9:  # antiparallel: any perpendicular axis will do
-        axis = cross(u_from, [1.0, 0.0, 0.0] if abs(u_from[0]) < 0.9 else [0.0, 1.0, 0.0])
-    axis = unit(axis)
-    c, s = math.cos(max_angle), math.sin(max_angle)
-    return c * u_from + s * cross(axis, u_from)
 
 
 class HoldPointController(LeafSystem):
@@ -182,7 +169,7 @@ class HoldPointController(LeafSystem):
         gate = math.radians(cfg.descent_gate_deg)
         blend = min(max((off_axis - gate) / gate, 0.0), 1.0)  # 0 inside the gate, 1 beyond 2x
         range_R = range_H + blend * max(range_C - range_H, 0.0)
-        p_R = range_R * _rotate_towards(u_C, u_H, math.radians(cfg.max_reference_step_deg))
+        p_R = range_R * rotate_towards(u_C, u_H, math.radians(cfg.max_reference_step_deg))
         v_R = cross(w_LT_L, p_R)
 
         # Velocity-limited PD with CW and centripetal feed-forward (paper 004 eq. 12).

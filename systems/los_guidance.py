@@ -14,7 +14,21 @@ The regimes (paper 004 Sec. 7; r = |p_TC_T|, r_sync = 2 a_max / omega_t^2, eq. 1
 - close approach, r <= r_sync: a PD in the body frame T toward the hold point H, its approach
   speed limited to min(v_max, sqrt(a_max d)) at a distance d from H (a stop at a_max / 2);
 - hold, within `hold_tolerance_m` of H and slower than `hold_speed_m_s` (left again beyond
-  twice the tolerance): the same body-frame PD without the speed limit.
+  twice the tolerance): the same body-frame PD without the speed limit;
+- entry (rpod's, not the paper's; `entry: true`), within r_sync, from when the line of sight is
+  outside the corridor's half-angle until it is within `entry_gate_deg` of the axis: the close
+  approach's PD toward a reference that goes round the target instead of through it. The
+  paper's starts are at rest inside or in front of the corridor; from behind the target the
+  close approach's straight line to H runs through it, and the best-effort QP's keep-out held
+  the chaser on the keep-out sphere for good (the shoot-out's stalls). The reference R is on the
+  line of sight turned toward the axis, at the range it descends to, never below the entry
+  sphere (keep-out radius + `entry_margin_m`): R = r_R rotate(u, +y, theta), r_R = max(r_e,
+  |p| - l), theta = min(acos(r_ko / min(|p|, r_R)), l / |p|), l = reference_lead_s of travel
+  at the speed limit; the first bound keeps the chord from the chaser to R beyond the keep-out
+  sphere's tangent plane n . p >= r_ko (n the line of sight: both ends are). The MPC does not
+  filter this regime (its corridor cannot be met outside it, and its exact penalty is what
+  pulled the chaser at the corridor through the target): the PD flies alone, clipped to the box,
+  and no QP is solved.
 Every regime cancels the CW terms (the feed-forward of eq. 12) and, in T, the apparent
 accelerations of the turning frame, so a body-frame PD is a PD on the body-frame error:
 
@@ -60,7 +74,7 @@ from pydrake.systems.framework import EventStatus, LeafSystem
 
 from rpod.models.config import ConfigError, bounded, check_bounds, count, positive
 from rpod.models.cw import cw_acceleration
-from rpod.models.frames import cross, quaternion_wxyz, rotation_from_wxyz
+from rpod.models.frames import cross, quaternion_wxyz, rotate_towards, rotation_from_wxyz
 from rpod.models.los_corridor import VIOLATION_TOLERANCE_M, LosCorridor, sync_range_m
 from rpod.planners.los_corridor_mpc import LosCorridorMpc, LosMpcSettings, MpcStatus
 from rpod.planners.los_prediction import BodyFrameStep, TargetState, cw_body_frame_matrices
@@ -74,6 +88,7 @@ class Regime(enum.IntEnum):
     FAR = 0
     CLOSE = 1
     HOLD = 2
+    ENTRY = 3  # rpod's, not the paper's: round the target into the corridor (`entry`)
 
 
 class Fallback(enum.IntEnum):
@@ -125,6 +140,13 @@ class LosGuidanceConfig:
             failed (the best-effort QP, else the fallback chain). rpod's, not the paper's
             (False: its chain): the shoot-out's starts, mostly outside the corridor, ran the
             hard QP to OSQP's iteration limit every step (~200 ms a step).
+        entry: the entry regime (module docstring; rpod's, not the paper's): within r_sync,
+            while the chaser's line of sight is outside the corridor's half-angle (and until it
+            is within entry_gate_deg of the axis), go round the target into the corridor
+            instead of at the hold point through it. False: the paper's regimes.
+        entry_gate_deg: the line of sight's angle from the corridor's axis at which the entry
+            regime hands over to the close approach (below the half-angle: inside the corridor).
+        entry_margin_m: the entry sphere's radius beyond the keep-out radius [m].
         mpc: horizon, weights and tolerances of eq. 11 (its a_max_m_s2 is a_max_m_s2 above:
             leave it out).
 
@@ -159,6 +181,9 @@ class LosGuidanceConfig:
     time_varying_model: bool = False
     substeps: int = count(2, 1, 100)
     skip_hard_qp_outside: bool = False
+    entry: bool = False
+    entry_gate_deg: float = bounded(15.0, 0.0, 90.0, low_open=True, high_open=True)
+    entry_margin_m: float = bounded(2.0, 0.0, 1e6)
     mpc: LosMpcSettings = dataclasses.field(default_factory=LosMpcSettings)
 
     def corridor(self) -> LosCorridor:
@@ -181,6 +206,12 @@ class LosGuidanceConfig:
             raise ConfigError(
                 "hold_distance_m",
                 f"must be beyond the floor ({self.floor_m} m), got {self.hold_distance_m}",
+            )
+        if self.entry and not self.entry_gate_deg < self.half_angle_deg:
+            raise ConfigError(
+                "entry_gate_deg",
+                f"must be below the corridor's half-angle ({self.half_angle_deg} deg), "
+                f"got {self.entry_gate_deg}",
             )
         if self.prediction not in PREDICTIONS:
             raise ConfigError(
@@ -259,7 +290,8 @@ def nominal_command_L(
 
     FAR: the reference p_ref_T (on the corridor axis at the spiral's range) is tracked in L,
     the correction speed within speed_limit (v_achv). CLOSE: toward p_ref_T = H in T at most
-    min(speed_limit, sqrt(a_max d)). HOLD: toward H without a speed limit.
+    min(speed_limit, sqrt(a_max d)); ENTRY: the same law toward the entry reference p_ref_T.
+    HOLD: toward H without a speed limit.
     """
     w_n, zeta = config.bandwidth_rad_s, config.damping
     error_T = p_ref_T - view.p_T
@@ -273,7 +305,7 @@ def nominal_command_L(
         v_des = _saturate(v_ref_L + w_n / (2 * zeta) * (p_ref_L - view.p_L), speed_limit)
         return 2 * zeta * w_n * (v_des - view.v_L) - cw_acceleration(view.n, view.p_L, view.v_L)
     v_des_T = w_n / (2 * zeta) * error_T
-    if mode is Regime.CLOSE:
+    if mode in (Regime.CLOSE, Regime.ENTRY):
         distance = float(np.linalg.norm(error_T))
         v_des_T = _saturate(v_des_T, min(speed_limit, math.sqrt(config.a_max_m_s2 * distance)))
     return view.command_L(2 * zeta * w_n * (v_des_T - view.v_T))
@@ -330,6 +362,7 @@ class LosGuidance(LeafSystem):
         self.config = config
         self.corridor = config.corridor()
         self.R_TK = None if R_TK is None else np.asarray(R_TK, dtype=float)
+        self._keep_out_m = max(keep_out_m, config.floor_m)
         self._p_KH_K = np.array([0.0, config.hold_distance_m, 0.0])
         # H in T itself (what the scene, the metrics and the figures read).
         self.p_TH_T = self._p_KH_K if self.R_TK is None else self.R_TK @ self._p_KH_K
@@ -345,7 +378,7 @@ class LosGuidance(LeafSystem):
                 A_c,
                 self.corridor.b_c,
                 soft=True,
-                keep_out_m=max(keep_out_m, config.floor_m),
+                keep_out_m=self._keep_out_m,
             )
             if config.filter and settings.corridor_penalty > 0
             else None
@@ -355,9 +388,9 @@ class LosGuidance(LeafSystem):
         )
         self._sensed_port = declare_sensed_input(self)
         # Held outputs [command (3), nominal (3), status (5)]; memory [u_prev (3), rho_ref,
-        # holding, plan age]; the last successful plan's inputs (abstract).
+        # holding, plan age, entering]; the last successful plan's inputs (abstract).
         self._held = self.DeclareDiscreteState(np.r_[np.zeros(6), -1, -1, 0, 0, 0])
-        self._memory = self.DeclareDiscreteState(np.array([0, 0, 0, np.nan, 0, 0], dtype=float))
+        self._memory = self.DeclareDiscreteState(np.array([0, 0, 0, np.nan, 0, 0, 0], dtype=float))
         self._plan = self.DeclareAbstractState(Value(np.zeros((0, 3))))
         self.step_timer = StepTimer()  # the compute per control step (rpod.systems.step_timer)
         self.DeclarePeriodicUnrestrictedUpdateEvent(
@@ -432,6 +465,26 @@ class LosGuidance(LeafSystem):
         v_ref = _saturate(gain * (distance - ahead) * direction, speed)
         return np.concatenate([view.p_T + ahead * direction, v_ref])
 
+    def _entering(self, view: BodyFrameView, entering: bool) -> bool:
+        """Whether the entry regime flies this step (module docstring): the line of sight
+        beyond the corridor's half-angle, or beyond the gate while already entering."""
+        r = float(np.linalg.norm(view.p_T))
+        off_axis = math.degrees(math.acos(min(max(view.p_T[1] / max(r, 1e-9), -1.0), 1.0)))
+        gate = self.config.entry_gate_deg if entering else self.config.half_angle_deg
+        return off_axis > gate
+
+    def _entry_reference(self, view: BodyFrameView, speed_limit: float) -> np.ndarray:
+        """The entry regime's reference point in T (module docstring), at rest in T."""
+        config = self.config
+        r = max(float(np.linalg.norm(view.p_T)), 1e-9)
+        lead = min(speed_limit, config.v_max_m_s) * config.reference_lead_s
+        r_entry = self._keep_out_m + config.entry_margin_m
+        r_R = max(r_entry, r - lead)
+        r_min = min(r, r_R)
+        clear = math.acos(self._keep_out_m / r_min) if r_min > self._keep_out_m else 0.0
+        u = rotate_towards(view.p_T / r, np.array([0.0, 1.0, 0.0]), min(clear, lead / r))
+        return r_R * u
+
     def _beyond_one_step(self, view: BodyFrameView) -> bool:
         """Whether the chaser is further outside the corridor than one control step can carry
         it (the config's skip_hard_qp_outside)."""
@@ -459,27 +512,35 @@ class LosGuidance(LeafSystem):
         omega = float(np.linalg.norm(sensed.w_IT_T))  # the tumble rate omega_t (eq. 14)
         r_sync = sync_range_m(config.a_max_m_s2, omega) if omega > 0 else math.inf
         mode = regime(view, self._p_KH_K, r_sync, holding, config)
+        if config.entry and mode is Regime.CLOSE and self._entering(view, memory[6] > 0):
+            mode = Regime.ENTRY
 
         # The reference: H, or far out the spiral's point on the corridor axis.
         v_achv = min(config.a_max_m_s2 * t / 2.0, config.v_max_m_s)
         if not np.isfinite(rho_ref):
             rho_ref = float(np.linalg.norm(view.p_T))
         v_ref_T = np.zeros(3)
+        speed_limit = max(v_achv, 1e-3)
         if mode is Regime.FAR:
             rho_ref = max(rho_ref - v_achv * config.control_period_s, config.hold_distance_m)
             p_ref_T = np.array([0.0, rho_ref, 0.0])
             x_ref = np.concatenate([p_ref_T, v_ref_T])
+        elif mode is Regime.ENTRY:
+            p_ref_T = self._entry_reference(view, speed_limit)
+            x_ref = np.concatenate([p_ref_T, v_ref_T])  # not filtered: kept for the record
         else:
             p_ref_T = self._p_KH_K
             x_ref = np.concatenate([p_ref_T, v_ref_T])
             if mode is Regime.CLOSE:
-                x_ref = self._approach_reference(view, max(v_achv, 1e-3))
-        u_nom = nominal_command_L(view, mode, p_ref_T, max(v_achv, 1e-3), config)
+                x_ref = self._approach_reference(view, speed_limit)
+        u_nom = nominal_command_L(view, mode, p_ref_T, speed_limit, config)
 
         status_code, iterations, solve_time, fallback = -1, 0, 0.0, Fallback.NONE
         plan = context.get_abstract_state(self._plan).get_value()
-        if self._mpc is None:
+        if self._mpc is None or mode is Regime.ENTRY:
             command = np.clip(u_nom, -config.a_max_m_s2, config.a_max_m_s2)
+            if mode is Regime.ENTRY:  # no plan outlives the way round
+                plan, plan_age = np.zeros((0, 3)), 0
         else:
             x_T = np.concatenate([view.p_T, view.v_T])
             A_d, B_d = self._model(sensed, x_T)
@@ -511,7 +572,9 @@ class LosGuidance(LeafSystem):
             )
         )
         state.get_mutable_discrete_state(self._memory).set_value(
-            np.concatenate([command, [rho_ref, float(mode is Regime.HOLD), plan_age]])
+            np.concatenate(
+                [command, [rho_ref, float(mode is Regime.HOLD), plan_age, mode is Regime.ENTRY]]
+            )
         )
         state.get_mutable_abstract_state(self._plan).set_value(plan)
         if config.stop_at_violation:

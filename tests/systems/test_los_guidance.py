@@ -185,3 +185,60 @@ def test_the_last_resort_brakes_when_the_box_allows_and_else_flies_the_regime_co
     command, fallback = system._last_resort(far, Regime.CLOSE, np.array([0.3, -0.05, 0.0]))
     assert fallback is Fallback.NOMINAL
     np.testing.assert_array_equal(command, [0.1, -0.05, 0.0])
+
+
+def _entry_guidance(**fields):
+    config = LosGuidanceConfig(entry=True, **fields)
+    return LosGuidance(config, INERTIA, "two_body_j2", keep_out_m=8.46)
+
+
+def _view(p_T, v_T=(0.0, 0.0, 0.0)):
+    from rpod.systems.sensed import Sensed
+
+    return BodyFrameView.from_sensed(Sensed.from_vector(_sensed(p_T, v_T)))
+
+
+def _off_axis_deg(p):
+    return np.degrees(np.arccos(p[1] / np.linalg.norm(p)))
+
+
+@pytest.mark.parametrize("range_m", [9.0, 10.46, 15.0, 40.0])
+@pytest.mark.parametrize("off_axis_deg", [35.0, 90.0, 150.0, 179.0, 180.0])
+def test_the_entry_reference_turns_toward_the_axis_with_its_chord_clear_of_the_keep_out(
+    range_m, off_axis_deg
+):
+    system = _entry_guidance()
+    angle = np.radians(off_axis_deg)
+    p = range_m * np.array([np.sin(angle) * 0.6, np.cos(angle), np.sin(angle) * 0.8])
+    reference = system._entry_reference(_view(p), speed_limit=1.0)
+    assert np.linalg.norm(reference) >= 8.46 + 2.0 - 1e-9  # never inside the entry sphere
+    assert _off_axis_deg(reference) < _off_axis_deg(p)  # nearer the corridor's axis
+    # Every point of the chord from the chaser to the reference is beyond the keep-out sphere.
+    chord = p + np.linspace(0.0, 1.0, 401)[:, None] * (reference - p)
+    assert np.min(np.linalg.norm(chord, axis=1)) >= 8.46 - 1e-9
+
+
+def test_the_entry_regime_flies_its_pd_unfiltered_and_hands_over_inside_the_gate():
+    system = _entry_guidance()
+    context = system.CreateDefaultContext()
+    system.get_input_port(0).FixValue(context, _sensed([0.0, -20.0, 3.0], [0.0, 0.0, 0.0]))
+    Simulator(system, context).AdvanceTo(0.5)
+    status = _status(system, context)
+    assert status[0] == Regime.ENTRY and status[1] == -1  # no QP solved
+    command = system.GetOutputPort("acceleration_command_L").Eval(context)
+    nominal = system.GetOutputPort("nominal_command_L").Eval(context)
+    np.testing.assert_array_equal(command, np.clip(nominal, -0.1, 0.1))
+    # Entered beyond the corridor's 30 deg, left only within the 15 deg gate.
+    at_20_deg = _view(20.0 * np.array([np.sin(np.radians(20)), np.cos(np.radians(20)), 0.0]))
+    assert system._entering(at_20_deg, entering=True)
+    assert not system._entering(at_20_deg, entering=False)
+    at_10_deg = _view(20.0 * np.array([np.sin(np.radians(10)), np.cos(np.radians(10)), 0.0]))
+    assert not system._entering(at_10_deg, entering=True)
+
+
+def test_an_entry_gate_outside_the_corridor_is_refused():
+    from rpod.models.config import ConfigError
+
+    with pytest.raises(ConfigError, match="entry_gate_deg"):
+        LosGuidanceConfig(entry=True, entry_gate_deg=30.0).validate()
+    LosGuidanceConfig(entry=False, entry_gate_deg=30.0).validate()  # off: not checked

@@ -118,6 +118,7 @@ _REGIMES = {
     0: ("far approach", "tab:blue"),
     1: ("close approach", "tab:orange"),
     2: ("hold", "tab:green"),
+    3: ("entry (round the target)", "tab:purple"),
 }
 _STATUS = {
     -1: ("not solved yet", "0.8"),

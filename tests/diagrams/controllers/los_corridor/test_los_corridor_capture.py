@@ -107,3 +107,32 @@ def test_without_capture_zero_hold_distance_is_still_refused():
     scenario.controller.hold_distance_m = 0.0
     with pytest.raises(ScenarioError, match=r"controller\.hold_distance_m"):
         validate_scenario(scenario)
+
+
+def _behind_the_target(scenario):
+    """Shoot-out start 76 (0.88 deg/s, 21 m away, seed 2200): the chaser on the far side of the
+    target from its port, where the straight way to the hold point runs through the target."""
+    scenario.target.rpy_LT_deg = []
+    scenario.target.q_LT = [0.251676, -0.805143, -0.0126618, 0.536883]
+    scenario.target.w_IT_T_deg_s = [-0.816289, 0.335531, -0.0543506]
+    scenario.chaser.p_LC_L = [18.620993, -9.754578, 1.752391]
+    scenario.chaser.v_LC_L = [-0.0045238, -0.0345429, -0.0219676]
+    scenario.chaser.rpy_LC_deg = [-100.184437, -61.976551, 71.363498]
+    scenario.duration_s = 120.0
+    return scenario
+
+
+def test_from_behind_the_target_the_entry_regime_goes_round_it_and_captures():
+    # The paper's regimes: the best-effort QP's keep-out holds the chaser on the keep-out
+    # sphere (the bodies' bounding radii, 8.46 m), outside the corridor, to the end.
+    stalled = simulate(_behind_the_target(_capture_scenario())).summary
+    assert not stalled["mission"]["success"]
+    assert stalled["final_range_m"] == pytest.approx(8.46, abs=0.05)
+    assert stalled["los_regime_steps"]["entry"] == 0
+    # The entry regime: round the target into the corridor, then the paper's close approach.
+    entered = simulate(_behind_the_target(_capture_scenario(entry=True))).summary
+    mission = entered["mission"]
+    assert mission["success"], mission["outcome"]
+    assert not entered["contact"]["occurred"]
+    assert entered["los_regime_steps"]["entry"] > 0 and entered["los_regime_steps"]["close"] > 0
+    assert entered["min_separation_m"] > 1.0
