@@ -153,6 +153,7 @@ def _cmd_sweep(args) -> int:
         save_runs=args.save_runs,
         record=args.record,
         retry_failed=args.retry_failed,
+        reuse=args.reuse,
         connect_timeout_s=args.connect_timeout_s,
     )
     counts = outcome.counts
@@ -360,6 +361,13 @@ def make_parser() -> argparse.ArgumentParser:
         "--retry-failed",
         action="store_true",
         help="run the failed runs again (their failures are kept in the store's retries table)",
+    )
+    sweep.add_argument(
+        "--reuse",
+        metavar="RESULTS",
+        help="record the finished runs of another campaign's results folder whose ids are "
+        "planned here instead of flying them again (an id is its run's whole scenario; the "
+        "result is that of the code that flew it)",
     )
     sweep.add_argument(
         "--connect-timeout-s",

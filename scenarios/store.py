@@ -329,6 +329,33 @@ class ResultStore:
             )
         return cursor.rowcount == 1
 
+    def reuse(self, other: "ResultStore", label: str) -> int:
+        """Records, for every run still pending here, the finished result that `other` holds
+        under the same run id (the id is the run's whole scenario: rpod.scenarios.campaign
+        .run_id), its worker marked `reused from <label>`; how many. The results are those
+        of the code that flew them into `other`."""
+        finished = {row["run_id"]: row for row in other.rows() if row["status"] in ("ok", "failed")}
+        pending = [run_id for run_id in self.pending_ids() if run_id in finished]
+        with self._guard("write"), self._connection:
+            for run_id in pending:
+                row = finished[run_id]
+                self._connection.execute(
+                    "UPDATE runs SET status = ?, reason = ?, detail = ?, metrics = ?,"
+                    " wall_time_s = ?, worker = ?, finished_at = ? WHERE run_id = ?"
+                    " AND status = 'pending'",
+                    (
+                        row["status"],
+                        row["reason"],
+                        row["detail"],
+                        json.dumps(row["metrics"]) if row["metrics"] is not None else None,
+                        row["wall_time_s"],
+                        f"reused from {label}",
+                        row["finished_at"],
+                        run_id,
+                    ),
+                )
+        return len(pending)
+
     def retry_failed(self) -> int:
         """Sets every failed run back to pending, keeping its failure in `retries`; how many."""
         with self._guard("write"), self._connection:

@@ -74,6 +74,7 @@ from rpod.scenarios.store import (
     mission_success,
     plan_fingerprint,
     remove_folders,
+    store_path,
 )
 
 LOCK_NAME = ".sweep.lock"
@@ -476,6 +477,7 @@ def run_campaign(
     save_runs: bool = False,
     record: bool = False,
     retry_failed: bool = False,
+    reuse: pathlib.Path | None = None,
     connect_timeout_s: float = DEFAULT_CONNECT_TIMEOUT_S,
     progress_stream=None,
 ) -> SweepOutcome:
@@ -496,6 +498,9 @@ def run_campaign(
             with a remote cluster out_dir must be on a file system the workers share.
         record: also write each run's Meshcat recording (implies save_runs).
         retry_failed: set the failed runs back to pending and run them again.
+        reuse: another campaign's results folder: its finished runs whose ids are planned here
+            are recorded as they are instead of flown again (ResultStore.reuse; the id is the
+            run's whole scenario, the result that of the code that flew it there).
         connect_timeout_s: how long to wait for the scheduler and its first worker.
         progress_stream: where the progress line goes (default stderr).
     """
@@ -506,6 +511,15 @@ def run_campaign(
         )
     out_dir = pathlib.Path(out_dir)
     store_file = out_dir / STORE_NAME
+    if reuse is not None:  # a clear error before anything runs
+        try:
+            with ResultStore.open_existing(reuse) as other:
+                other.check()
+        except ScenarioFileError as error:
+            raise ScenarioFileError(f"--reuse: {error}") from None
+        reuse = store_path(pathlib.Path(reuse))
+        if reuse.resolve() == store_file.resolve():
+            raise ScenarioFileError(f"--reuse {reuse.parent}: is the --out folder itself")
     ResultStore.check_compatible(store_file, plan_fingerprint(r.run_id for r in runs), len(runs))
     made = make_folder(out_dir)
     stop = _StopSignals()
@@ -522,6 +536,7 @@ def run_campaign(
                 save_runs=save_runs,
                 record=record,
                 retry_failed=retry_failed,
+                reuse=reuse,
                 connect_timeout_s=connect_timeout_s,
                 progress_stream=progress_stream,
             )
@@ -545,12 +560,13 @@ def _run_locked(
     save_runs,
     record,
     retry_failed,
+    reuse,
     connect_timeout_s,
     progress_stream,
 ) -> SweepOutcome:
     """run_campaign once the folder is locked: the cluster, the store and the runs."""
     store_file = out_dir / STORE_NAME
-    if store_file.exists():
+    if store_file.exists() and reuse is None:
         with ResultStore(store_file) as store:
             counts = store.counts()
             left = counts["pending"] + (counts["failed"] if retry_failed else 0)
@@ -589,6 +605,7 @@ def _run_locked(
                     save_runs=save_runs,
                     record=record,
                     retry_failed=retry_failed,
+                    reuse=reuse,
                     progress_stream=progress_stream,
                 )
             finally:  # results.sqlite alone then holds every result (store.py, "On disk")
@@ -619,6 +636,7 @@ def _submit_all(
     save_runs,
     record,
     retry_failed,
+    reuse,
     progress_stream,
 ) -> SweepOutcome:
     """Writes the plan, then keeps a window of pending runs in flight and records each result."""
@@ -640,6 +658,13 @@ def _submit_all(
         },
         runs,
     )
+    if reuse is not None:
+        with ResultStore.open_existing(reuse) as other:
+            reused = store.reuse(other, str(reuse.parent))
+        print(
+            f"{campaign.name}: {reused} finished runs reused from {reuse.parent} (not flown again)",
+            file=progress_stream or sys.stderr,
+        )
     if retry_failed:
         store.retry_failed()
     by_id = {run.run_id: run for run in runs}

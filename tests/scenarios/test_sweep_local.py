@@ -218,3 +218,56 @@ def test_ctrl_c_stops_cleanly_and_keeps_what_finished(spawn, tmp_path):
     finished = re.search(r"(\d+) ok, 0 failed, (\d+) pending", error)
     assert finished and int(finished.group(1)) == counts["ok"]  # what it said is what it kept
     wait_until(lambda: group_gone(driver.pid), 60, "the workers to exit")  # nothing left over
+
+
+def test_reuse_records_the_runs_another_store_finished_and_flies_the_rest(
+    small_campaign_local, tmp_path
+):
+    campaign_file, out, _ = small_campaign_local
+    before = {row["run_id"]: row for row in stored_rows(out)}
+    # The same campaign with one grid value changed: half its runs are the small campaign's.
+    extended = tmp_path / "extended.yaml"
+    extended.write_text(campaign_file.read_text().replace("-100.0]", "-120.0]"))
+    new_out = tmp_path / "extended_out"
+    process = run_rpod(
+        "sweep",
+        str(extended),
+        "--out",
+        str(new_out),
+        "--reuse",
+        str(out),
+        "--workers",
+        "1",
+        cwd=tmp_path,
+    )
+    assert process.returncode == 0, process.stderr
+    assert f"4 finished runs reused from {out}" in process.stderr
+    assert "(4 run now)" in process.stdout
+    rows = stored_rows(new_out)
+    reused = [row for row in rows if row["run_id"] in before]
+    assert len(reused) == 4 and len(rows) == 8
+    for row in reused:
+        assert row["worker"] == f"reused from {out}"
+        assert row["metrics"] == before[row["run_id"]]["metrics"]
+    assert all(
+        r["status"] == "ok" and not r["worker"].startswith("reused")
+        for r in rows
+        if r["run_id"] not in before
+    )
+
+
+def test_reuse_of_a_folder_without_a_store_is_one_line_and_exit_2(small_campaign_local, tmp_path):
+    campaign_file, _, _ = small_campaign_local
+    process = run_rpod(
+        "sweep",
+        str(campaign_file),
+        "--out",
+        str(tmp_path / "o"),
+        "--reuse",
+        str(tmp_path),
+        cwd=tmp_path,
+    )
+    assert process.returncode == 2
+    lines = process.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("rpod: error: --reuse:"), lines
+    assert not (tmp_path / "o").exists()
