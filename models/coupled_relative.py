@@ -47,7 +47,10 @@ The chaser's absolute state is not stored: it follows from x (`chaser_absolute_s
 Input u (INPUT_SIZE = 24): the eight thrusters' force vectors on the chaser, expressed in C and
 stacked thruster by thruster, u[3k:3k+3] = f_k in C [N], in the order of
 `rpod.models.thrusters.gimbaled_cuboid_8` (face y = +2 m then y = -2 m; on each face the
-corners (+x,+z), (-x,+z), (-x,-z), (+x,-z)).
+corners (+x,+z), (-x,+z), (-x,-z), (+x,-z)). On a fixed bank (`layout.gimbaled` False; rpod's,
+for the shoot-out's rcs_cube_12) u is one thrust per thruster, u_k in [0, f_max] [N], the
+force f_k = u_k d_k along its fixed nozzle direction d_k: eqs. 11-12 with the gimbal angles
+held at zero (`params.input_size` = n, the layout's command size; 3 n when gimbaled).
 
 Choices where the paper is ambiguous or silent (each shown by a test where one can be):
 
@@ -191,7 +194,8 @@ class CoupledRelativeParams:
             isotropic, module docstring choice 7; only its ratios matter).
         p_TPt_T: r^t_pt/t, the target feature point from t, in T (3,) [m].
         p_CPc_C: r^c_pc/c, the chaser feature point from c, in C (3,) [m].
-        layout: The eight gimbaled thrusters (positions, nominal directions, limits).
+        layout: The thrusters (positions, nominal directions, limits): paper 001's eight
+            gimbaled ones (force vectors), or a fixed bank (one thrust each, module docstring).
         mu: Gravitational parameter of the central body [m^3/s^2].
     """
 
@@ -214,11 +218,9 @@ class CoupledRelativeParams:
         self.J_t = np.asarray(self.J_t, dtype=float)
         self.p_TPt_T = np.asarray(self.p_TPt_T, dtype=float)
         self.p_CPc_C = np.asarray(self.p_CPc_C, dtype=float)
-        if self.layout.count != THRUSTER_COUNT or not self.layout.gimbaled:
-            raise ValueError(
-                f"layout must hold {THRUSTER_COUNT} gimbaled thrusters, got {self.layout.count}"
-                f" (gimbaled={self.layout.gimbaled})"
-            )
+        if self.layout.count < 1:
+            raise ValueError("layout must hold at least one thruster")
+        self.input_size = int(self.layout.command_size)  # 3 n gimbaled, n fixed
         if not (math.isfinite(self.chaser_mass_kg) and self.chaser_mass_kg > 0.0):
             raise ValueError(f"chaser_mass_kg must be > 0, got {self.chaser_mass_kg!r}")
         self.J_c_inv = np.linalg.inv(self.J_c)
@@ -330,9 +332,12 @@ def differential_two_body_acceleration(p_IT_I, d_I, mu: float = MU_EARTH_M3_S2) 
 # Thrusters (eqs. 11-12).
 
 
-def thruster_forces_C(u) -> np.ndarray:
-    """The input u (24,) as rows f_k in C (8, 3) [N]."""
-    return np.asarray(u).reshape(THRUSTER_COUNT, 3)
+def thruster_forces_C(u, params: CoupledRelativeParams | None = None) -> np.ndarray:
+    """The input u as rows f_k in C (n, 3) [N]: u reshaped (gimbaled; params None: paper 001's
+    24), or on a fixed bank u_k d_k (module docstring). Scalar-generic."""
+    if params is not None and not params.layout.gimbaled:
+        return np.asarray(u)[:, None] * params.layout.directions_C
+    return np.asarray(u).reshape(-1, 3)
 
 
 def chaser_wrench(params: CoupledRelativeParams, u) -> np.ndarray:
@@ -341,7 +346,7 @@ def chaser_wrench(params: CoupledRelativeParams, u) -> np.ndarray:
     f_C = sum_k f_k (eq. 11) and tau_C = sum_k p_CK_C x f_k (eq. 12), from
     `rpod.models.gimbal.wrench_from_forces` (scalar-generic).
     """
-    return wrench_from_forces(params.layout, thruster_forces_C(u))
+    return wrench_from_forces(params.layout, thruster_forces_C(u, params))
 
 
 # --------------------------------------------------------------------------------------------
@@ -530,11 +535,18 @@ def target_dynamics(x_target: np.ndarray, params: CoupledRelativeParams) -> np.n
 
 
 def _force_to_wrench_matrix(params: CoupledRelativeParams) -> np.ndarray:
-    """M (6, 24) with [tau_C; f_C] = M u (eqs. 11-12 are linear in u): the layout's
-    `rpod.models.gimbal.force_to_wrench_matrix`, cached on params."""
+    """M (6, m) with [tau_C; f_C] = M u (eqs. 11-12 are linear in u): the layout's
+    `rpod.models.gimbal.force_to_wrench_matrix`, times the block-diagonal of the nozzle
+    directions on a fixed bank (f_k = u_k d_k), cached on params."""
     M = getattr(params, "_wrench_matrix", None)
     if M is None:
         M = force_to_wrench_matrix(params.layout)
+        if not params.layout.gimbaled:
+            n = params.layout.count
+            directions = np.zeros((3 * n, n))
+            for k, d in enumerate(params.layout.directions_C):
+                directions[3 * k : 3 * k + 3, k] = d
+            M = M @ directions
         params._wrench_matrix = M
     return M
 

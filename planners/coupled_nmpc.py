@@ -145,6 +145,9 @@ _IPOPT_STATUS = {
 """IPOPT's return status names (as CasADi reports them) -> NmpcStatus; others are FAILED."""
 
 SOLVERS = ("ipopt", "snopt", "sqp", "rti", "casadi_ipopt")
+FIXED_BANK_SOLVERS = ("sqp", "rti")
+"""The solvers that plan a fixed bank's thrust per thruster (rpod.planners.coupled_sqp); the
+others' transcriptions hold paper 001's gimbal pyramids and force vectors."""
 
 MAX_RK4_STEPS = 1000
 """Most RK4 steps over the horizon (intervals x rk4_substeps; Sec. IV's: 16): the work of every
@@ -224,7 +227,8 @@ class NmpcResult:
     Attributes:
         status: What came of it (NmpcStatus).
         solver_message: The solver's own word (IPOPT's status name, SNOPT's info code).
-        u: The inputs (N, 24), u[k] = the eight thrust vectors in C on interval k [N].
+        u: The inputs (N, m), u[k] = the eight thrust vectors in C on interval k [N] (m = 24),
+            or on a fixed bank each thruster's thrust (m = n, rpod.models.coupled_relative).
         x: The states at the nodes (N + 1, 39): x[:, :21] the NLP's, x[:, 21:] the target's
             reference (module docstring).
         slack: The LOS slacks at the nodes (N + 1, 4) [m].
@@ -330,6 +334,11 @@ class CoupledNmpc:
         self.settings = settings if settings is not None else CoupledNmpcSettings()
         self.settings.validate()
         s = self.settings
+        if not self.params.layout.gimbaled and s.solver not in FIXED_BANK_SOLVERS:
+            raise ValueError(
+                f"solver: a fixed thruster bank is planned by {FIXED_BANK_SOLVERS} only "
+                f"(the gimbal rows of the others are paper 001's), got {s.solver!r}"
+            )
         self.N = int(s.intervals)
         self.interval_s = s.horizon_s / self.N
         self.A_p = cr.los_polyhedron(self.params.p_TPt_T, s.los_half_angle_rad)
@@ -560,7 +569,7 @@ class CoupledNmpc:
             raise ValueError(f"x0 must be {cr.STATE_SIZE} finite numbers, got shape {x0.shape}")
         N = self.N
         if warm_start is None:
-            u_guess = np.zeros((N, cr.INPUT_SIZE))
+            u_guess = np.zeros((N, self.params.input_size))
             x_guess, c_guess = self.rollout(x0, u_guess)
         elif self.settings.solver == "rti":
             # RTI linearises about the shifted previous solution with R_TC projected back onto
@@ -702,7 +711,7 @@ class CoupledNmpc:
     def _result(self, status, message, result, elapsed, iterations, x0) -> NmpcResult:
         N = self.N
         if result is None:
-            u = np.full((N, cr.INPUT_SIZE), np.nan)
+            u = np.full((N, self.params.input_size), np.nan)
             x_nlp = np.full((N + 1, NLP_STATE_SIZE), np.nan)
             slack = np.full((N + 1, self.A_p.shape[0]), np.nan)
             c = np.full(N, np.nan)
@@ -782,7 +791,9 @@ def check_plan(
     and (ii) from x_0 through all intervals in one chain (the trajectory the inputs fly). The
     constraints are evaluated from their definitions: the gimbal pyramid per thruster from
     `rpod.models.gimbal.gimbal_polyhedron` (not the NLP's block matrix), the magnitude by
-    np.linalg.norm (not squared), the LOS rows with the plan's slacks.
+    np.linalg.norm (not squared), the LOS rows with the plan's slacks. On a fixed bank the
+    force set of a thruster is the segment [0, f_max] d_k: gimbal_excess_N is then -u_k (a
+    thrust below zero), magnitude_excess_N u_k - f_max.
 
     Returns a dict of worst values (excesses <= 0 mean satisfied):
         defect_<group>: max |DOP853 from node k - node k+1| over k, per state group.
@@ -811,7 +822,11 @@ def check_plan(
 
     gimbal, magnitude = [], []
     for k in range(N):
-        forces = u[k].reshape(cr.THRUSTER_COUNT, 3)
+        if not params.layout.gimbaled:
+            gimbal.extend(-u[k])
+            magnitude.extend(u[k] - params.layout.max_thrusts_N)
+            continue
+        forces = u[k].reshape(params.layout.count, 3)
         for thruster, f in zip(params.layout.thrusters, forces):
             A, b = gimbal_polyhedron(thruster)
             gimbal.append(np.max(A @ f - b))

@@ -34,7 +34,8 @@ NX = cr.PAPER_STATE_SIZE
 """State entries that are decision variables (eq. 15): x[:21]."""
 NU = cr.INPUT_SIZE
 NZ = NX + NU
-"""Directions of one interval's derivatives: its start state (21) then its input (24)."""
+"""Directions of one interval's derivatives on paper 001's bank: its start state (21) then its
+input (24); `shoot` takes any input size (a fixed bank's n)."""
 _STEP = 1e-30
 """Complex step h (module docstring): any h this small gives derivatives exact to round-off."""
 _RK4_WEIGHTS = np.array([1.0, 2.0, 2.0, 1.0]) / 6.0
@@ -75,8 +76,9 @@ class Shooting:
         stage_weights: Quadrature weight of each stage point (S,) [s]: sum_j w_j F(x_j, u_k)
             is q_k.
         A: d x_end / d x_k (N, 21, 21), or None without derivatives.
-        B: d x_end / d u_k (N, 21, 24), or None.
-        stage_J: d stage_x / d [x_k; u_k] (N, S, 21, 45), or None.
+        B: d x_end / d u_k (N, 21, m), or None (m: the input's size, 24 for paper 001's
+            gimbaled bank, n for a fixed bank: rpod.models.coupled_relative).
+        stage_J: d stage_x / d [x_k; u_k] (N, S, 21, 21 + m), or None.
     """
 
     x_end: np.ndarray
@@ -94,7 +96,7 @@ def stage_weights(interval_s: float, substeps: int) -> np.ndarray:
 
 
 def stage_cost_batch(x: np.ndarray, u: np.ndarray, weights: cr.CoupledNmpcWeights, params):
-    """F(x, u) of eq. 20 for rows x (B, >= 21), u (B, 24): `coupled_relative.stage_cost`
+    """F(x, u) of eq. 20 for rows x (B, >= 21), u (B, m): `coupled_relative.stage_cost`
     vectorised (D diagonal, as CoupledNmpcWeights requires)."""
     d = np.diag(np.asarray(weights.D, dtype=float))
     R_diag = x[:, [0, 4, 8]]
@@ -164,7 +166,7 @@ def shoot(
     Args:
         x_nodes: The NLP state at the interval starts (N, 21) (or (N + 1, 21): the last row is
             not used).
-        u: The inputs (N, 24) [N].
+        u: The inputs (N, m) [N].
         target_nodes: The target's reference at the nodes (>= N, 18) (`target_reference`).
         interval_s: T_s [s]; substeps: RK4 steps per interval.
         params, weights: The model's data and eq. 20's weights.
@@ -213,7 +215,7 @@ def shoot(
 
 
 def cost_gradient(shooting: Shooting, u: np.ndarray, weights, params) -> np.ndarray:
-    """d q_k / d [x_k; u_k] (N, 45): the exact gradient of each interval's RK4 quadrature of
+    """d q_k / d [x_k; u_k] (N, 21 + m): the exact gradient of each interval's RK4 quadrature of
     eq. 20, from the stage points' Jacobians (needs `shoot(..., derivatives=True)`)."""
     c = shooting.stage_weights
     y = shooting.stage_x

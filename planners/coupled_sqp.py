@@ -21,7 +21,9 @@ The QP (variables u_0..u_N-1, x_1..x_N (NLP states), s_1..s_N (LOS slacks); x_0 
   eq. 16 exactly (linear); eq. 17 linearised about the current forces, 2 f_bar.f <= f_max^2 +
   |f_bar|^2 (exact at convergence), plus the cap d_k.f_k <= f_max that bounds the QP when
   f_bar = 0; eq. 18 softened exactly as the NLP (A_p p_k - s_k <= 0, s_k >= 0); the NLP's box on
-  the relative rate at the nodes.
+  the relative rate at the nodes. On a fixed bank (one thrust per thruster,
+  rpod.models.coupled_relative) eqs. 16-17 are the box 0 <= u_k <= f_max, exact and linear: the
+  cap rows hold it, and there are no gimbal or magnitude rows.
 
 Why Gauss-Newton SQP beside IPOPT: Drake gives IPOPT no second derivatives, and with its
 limited-memory Hessian IPOPT does not converge on T = 480 s (coupled_nmpc's docstring). Paper
@@ -50,8 +52,7 @@ from rpod.planners import coupled_shooting as cs
 
 _logger = logging.getLogger(__name__)
 
-NX, NU = cs.NX, cs.NU
-NZ_INTERVAL = cs.NZ
+NX = cs.NX
 
 _SCALES = np.concatenate(
     [
@@ -121,7 +122,7 @@ class SqpOutcome:
         converged: The convergence test passed.
         qp_failed: The last QP was not solved (OSQP's status in `message`).
         message: A short account (OSQP's status on a failure).
-        x: NLP-state nodes (N + 1, 21); u: inputs (N, 24); s: LOS slacks (N + 1, 4).
+        x: NLP-state nodes (N + 1, 21); u: inputs (N, m); s: LOS slacks (N + 1, 4).
         q: The stage costs of each interval (N,).
         iterations: SQP iterations taken; qp_iterations: OSQP iterations summed.
         max_defect: The largest scaled defect at the returned point.
@@ -156,9 +157,11 @@ class CoupledSqp:
         self.settings = settings if settings is not None else SqpSettings()
         self.settings.validate()
         layout = params.layout
+        self.nu, self.n_thrusters, self.gimbaled = params.input_size, layout.count, layout.gimbaled
         self.f_max = layout.max_thrusts_N
         self.directions = layout.directions_C
-        self.A_g, self.b_g = gimbal_constraint_matrix(layout)
+        if self.gimbaled:
+            self.A_g, self.b_g = gimbal_constraint_matrix(layout)
         M_tau = cr._force_to_wrench_matrix(params)[:3]
         self.H_u = 2.0 * self.h * (np.asarray(weights.W_f) + M_tau.T @ weights.W_tau @ M_tau)
         self.Q_y = np.zeros((9, 9))
@@ -181,14 +184,16 @@ class CoupledSqp:
     # ------------------------------------------------------------------------------ layout
 
     def _layout_indices(self) -> None:
-        N = self.N
-        self.n_u, self.n_x, self.n_s = N * NU, N * NX, N * 4
+        N, n = self.N, self.n_thrusters
+        self.n_u, self.n_x, self.n_s = N * self.nu, N * NX, N * 4
         self.nz = self.n_u + self.n_x + self.n_s
         self.D = np.concatenate(
             [np.full(self.n_u, _INPUT_SCALE), np.tile(_SCALES, N), np.ones(self.n_s)]
         )
-        # Constraint rows: dynamics, gimbal, magnitude, cap, LOS, slack >= 0, rate box.
-        counts = [N * NX, N * 32, N * 8, N * 8, N * 4, N * 4, N * 3]
+        # Constraint rows: dynamics, gimbal, magnitude, cap, LOS, slack >= 0, rate box (a fixed
+        # bank: no gimbal or magnitude rows, its box in the cap rows).
+        gimbal, magnitude = (4 * n, n) if self.gimbaled else (0, 0)
+        counts = [N * NX, N * gimbal, N * magnitude, N * n, N * 4, N * 4, N * 3]
         starts = np.concatenate([[0], np.cumsum(counts)])
         self.rows = {
             name: slice(starts[i], starts[i + 1])
@@ -197,14 +202,14 @@ class CoupledSqp:
         self.m = int(starts[-1])
 
     def _cost_indices(self) -> None:
-        """Columns of [x_k; u_k] for k = 1..N-1 (N-1, 45, 1) and of u_0 (24, 1)."""
+        """Columns of [x_k; u_k] for k = 1..N-1 (N-1, 21 + m, 1) and of u_0 (m, 1)."""
         self._Hk_idx = np.stack(
             [np.concatenate([self.ix(k), self.iu(k)]) for k in range(1, self.N)]
         )[:, :, None]
         self._Hu0 = self.iu(0)[:, None]
 
     def iu(self, k: int) -> np.ndarray:
-        return k * NU + np.arange(NU)
+        return k * self.nu + np.arange(self.nu)
 
     def ix(self, k: int) -> np.ndarray:
         """Columns of x_k, k = 1..N."""
@@ -222,7 +227,9 @@ class CoupledSqp:
             P[np.ix_(cols, cols)] = True
         P[np.ix_(self.ix(N), self.ix(N))] = True
         P[np.arange(self.nz), np.arange(self.nz)] = True
-        A = self._constraint_matrix(np.ones((N, NX, NX)), np.ones((N, NX, NU)), np.ones((N, NU)))
+        A = self._constraint_matrix(
+            np.ones((N, NX, NX)), np.ones((N, NX, self.nu)), np.ones((N, self.nu))
+        )
         return np.triu(P), A.copy() != 0.0
 
     # ------------------------------------------------------------------------------ QP data
@@ -235,27 +242,32 @@ class CoupledSqp:
         A = self._A_dense
         A[self._B_rows, self._B_cols] = -B_dyn
         A[self._Ad_rows, self._Ad_cols] = -A_dyn[1:]
-        A[self._mag_rows, self._mag_cols] = 2.0 * u_bar.reshape(self.N, 8, 3)
+        if self.gimbaled:
+            A[self._mag_rows, self._mag_cols] = 2.0 * u_bar.reshape(self.N, self.n_thrusters, 3)
         return A
 
     def _constant_rows(self) -> np.ndarray:
-        N, r = self.N, self.rows
+        N, r, n = self.N, self.rows, self.n_thrusters
         A = np.zeros((self.m, self.nz))
         dyn_rows = r["dyn"].start + np.arange(N * NX).reshape(N, NX)
         self._B_rows = dyn_rows[:, :, None]
         self._B_cols = np.stack([self.iu(k) for k in range(N)])[:, None, :]
         self._Ad_rows = dyn_rows[1:, :, None]
         self._Ad_cols = np.stack([self.ix(k) for k in range(1, N)])[:, None, :]
-        self._mag_rows = (r["mag"].start + np.arange(N * 8).reshape(N, 8))[:, :, None]
-        self._mag_cols = np.stack([self.iu(k).reshape(8, 3) for k in range(N)])
+        if self.gimbaled:
+            self._mag_rows = (r["mag"].start + np.arange(N * n).reshape(N, n))[:, :, None]
+            self._mag_cols = np.stack([self.iu(k).reshape(n, 3) for k in range(N)])
         for k in range(N):
             rows = dyn_rows[k]
             A[np.ix_(rows, self.ix(k + 1))] = np.eye(NX)
-            g_rows = r["gimbal"].start + 32 * k + np.arange(32)
-            A[np.ix_(g_rows, self.iu(k))] = self.A_g
-            for j in range(8):
-                cols = self.iu(k)[3 * j : 3 * j + 3]
-                A[r["cap"].start + 8 * k + j, cols] = self.directions[j]
+            if self.gimbaled:
+                g_rows = r["gimbal"].start + 4 * n * k + np.arange(4 * n)
+                A[np.ix_(g_rows, self.iu(k))] = self.A_g
+                for j in range(n):
+                    cols = self.iu(k)[3 * j : 3 * j + 3]
+                    A[r["cap"].start + n * k + j, cols] = self.directions[j]
+            else:  # the box 0 <= u_k <= f_max
+                A[r["cap"].start + n * k + np.arange(n), self.iu(k)] = 1.0
             los_rows = r["los"].start + 4 * k + np.arange(4)
             A[np.ix_(los_rows, self.ix(k + 1)[12:15])] = self.A_p
             A[los_rows, self.i_s(k + 1)] = -1.0
@@ -270,9 +282,12 @@ class CoupledSqp:
         rhs = shooting.x_end - np.einsum("kij,kj->ki", shooting.B, u_bar)
         rhs[1:] -= np.einsum("kij,kj->ki", shooting.A[1:], x_bar[1:N])
         lo[r["dyn"]] = hi[r["dyn"]] = rhs.reshape(-1)
-        hi[r["gimbal"]] = np.tile(self.b_g, N)
-        f_bar = u_bar.reshape(N, 8, 3)
-        hi[r["mag"]] = (self.f_max[None, :] ** 2 + np.sum(f_bar**2, axis=2)).reshape(-1)
+        if self.gimbaled:
+            hi[r["gimbal"]] = np.tile(self.b_g, N)
+            f_bar = u_bar.reshape(N, self.n_thrusters, 3)
+            hi[r["mag"]] = (self.f_max[None, :] ** 2 + np.sum(f_bar**2, axis=2)).reshape(-1)
+        else:
+            lo[r["cap"]] = 0.0
         hi[r["cap"]] = np.tile(self.f_max, N)
         lo[r["slack"]], hi[r["slack"]] = 0.0, np.inf
         lo[r["rate"]], hi[r["rate"]] = -self.w_max, self.w_max
@@ -283,7 +298,7 @@ class CoupledSqp:
         gradient at the guess, in unscaled variables."""
         N = self.N
         c = shooting.stage_weights
-        J = shooting.stage_J  # (N, S, 21, 45)
+        J = shooting.stage_J  # (N, S, 21, 21 + m)
         # Residual Jacobians of the sums of squares, all stage points stacked: sqrt(2 c_j) L^T
         # G_y (Q_y = L L^T) and sqrt(Q_R c_j d) G_R (module docstring).
         Gy = np.einsum("ij,nsjz->nsiz", self._L_y_T, J[:, :, _Y_ROWS, :])
@@ -291,10 +306,10 @@ class CoupledSqp:
         GR = (
             J[:, :, :9, :] * np.sqrt(self.weights.Q_R * np.outer(c, self._d_rows))[None, :, :, None]
         )
-        G = np.concatenate([Gy, GR], axis=2).reshape(N, -1, NZ_INTERVAL)
-        Hk = np.matmul(np.swapaxes(G, 1, 2), G)  # (N, 45, 45)
+        G = np.concatenate([Gy, GR], axis=2).reshape(N, -1, NX + self.nu)
+        Hk = np.matmul(np.swapaxes(G, 1, 2), G)  # (N, 21 + m, 21 + m)
         Hk[:, NX:, NX:] += self.H_u
-        gk = cs.cost_gradient(shooting, u_bar, self.weights, self.params)  # (N, 45), exact
+        gk = cs.cost_gradient(shooting, u_bar, self.weights, self.params)  # (N, 21 + m), exact
         self._interval_model = (Hk, gk)
         H = np.zeros((self.nz, self.nz))
         grad = np.zeros(self.nz)
@@ -317,7 +332,7 @@ class CoupledSqp:
 
     def _unpack(self, z, x0):
         N = self.N
-        u = z[: self.n_u].reshape(N, NU)
+        u = z[: self.n_u].reshape(N, self.nu)
         x = np.vstack([x0[None, :], z[self.n_u : self.n_u + self.n_x].reshape(N, NX)])
         s = z[self.n_u + self.n_x :].reshape(N, 4)
         return x, u, s
@@ -464,7 +479,12 @@ class CoupledSqp:
         )
 
     def _magnitude_excess(self, u) -> np.ndarray:
-        f = np.linalg.norm(u.reshape(self.N, 8, 3), axis=2)
+        """How far each force is beyond its limits [N]: |f_k| - f_max, or on a fixed bank
+        outside [0, f_max]."""
+        if not self.gimbaled:
+            thrust = u.reshape(self.N, self.n_thrusters)
+            return np.maximum(np.maximum(thrust - self.f_max[None, :], -thrust), 0.0)
+        f = np.linalg.norm(u.reshape(self.N, self.n_thrusters, 3), axis=2)
         return np.maximum(f - self.f_max[None, :], 0.0)
 
     def _shoot(self, x, u, target_nodes, derivatives):
@@ -481,7 +501,7 @@ class CoupledSqp:
 
         Args:
             x0: The NLP state at t (21,) (x_guess[0] is replaced by it).
-            x_guess, u_guess, s_guess: The guess (N + 1, 21), (N, 24), (N + 1, 4).
+            x_guess, u_guess, s_guess: The guess (N + 1, 21), (N, m), (N + 1, 4).
             target_nodes: The target's reference nodes (N + 1, 18).
         """
         st = self.settings
@@ -542,11 +562,13 @@ class CoupledSqp:
             # Line search on the l1 merit phi = J + nu |defects|_1 + nu_f sum (|f| - f_max)+,
             # nu from the QP's multipliers of the defects (kept non-decreasing).
             self._nu_merit = np.maximum(self._nu_merit, 1.5 * np.abs(y[self.rows["dyn"]]))
-            # d|f|^2 / d|f| = 2 |f|: the multiplier of the squared row times 2 f_max per N.
-            self._nu_force = max(
-                self._nu_force,
-                3.0 * float(np.max(self.f_max)) * float(np.max(np.abs(y[self.rows["mag"]]))),
-            )
+            # d|f|^2 / d|f| = 2 |f|: the multiplier of the squared row times 2 f_max per N (a
+            # fixed bank's box is linear and exact: every trial point keeps it).
+            if self.gimbaled:
+                self._nu_force = max(
+                    self._nu_force,
+                    3.0 * float(np.max(self.f_max)) * float(np.max(np.abs(y[self.rows["mag"]]))),
+                )
             phi0 = self._merit(shooting, x, u, s)
             slope = float(grad @ delta) - float(
                 self._nu_merit @ np.abs(self._defects(shooting, x)).reshape(-1)

@@ -2,7 +2,9 @@
 
 Owns: `CoupledNmpcController`, a LeafSystem that reads the sensed bundle, keeps the integral
 state xi_T of eq. 14, calls the NLP of eq. 22 every control period and outputs the eight
-thrusters' force vectors in C (24 numbers, the gimbaled bank's command); `coupled_state_from_sensed`
+thrusters' force vectors in C (24 numbers, the gimbaled bank's command), or on a fixed bank each
+thruster's level u_k / f_max in [0, 1] (the fixed bank's per-thruster command, through the PWM);
+`coupled_state_from_sensed`
 (the prediction model's state x from one sensed sample); the status codes and fallbacks it logs.
 Does not own: the prediction model, its constraints and costs (rpod.models.coupled_relative), the
 NLP and its solver (rpod.planners.coupled_nmpc), the thrusters' limits (the bank clips whatever
@@ -34,6 +36,11 @@ usable plan's input for the current instant, u[k] with k = floor((t - t_plan) / 
 plan lasts (k < N), else zero thrust. Each step's status code, fallback, iterations, solve time
 and cost are output (`nmpc_status`) for the log, and every solve is recorded (`solve_records`).
 
+The planner's chaser frame. A planner whose goal attitude is not R_TC = I works in a chaser
+frame C' fixed in the chaser (R_CC', rpod.diagrams.controllers.coupled_nmpc.problem): the
+controller gives it the chaser's attitude as C''s, q_IC' = q_IC R_CC', w_IC'_C' = R_CC'^T
+w_IC_C; its thrust per thruster is the same in either frame.
+
 Warm start: the last usable plan shifted by the whole intervals elapsed since it was made
 (`CoupledNmpc.shifted_warm_start`, once per interval), None (the planner's zero-thrust rollout)
 when there is none or it has run out. A failed solve's iterate is not used as a guess.
@@ -48,7 +55,7 @@ from pydrake.common.value import Value
 from pydrake.systems.framework import LeafSystem
 
 from rpod.models import coupled_relative as cr
-from rpod.models.frames import cross, rotation_from_wxyz
+from rpod.models.frames import cross, quaternion_wxyz, rotation_from_wxyz
 from rpod.planners.coupled_nmpc import NmpcStatus
 from rpod.systems.sensed import Sensed, declare_sensed_input
 from rpod.systems.step_timer import StepTimer
@@ -174,7 +181,9 @@ class CoupledNmpcController(LeafSystem):
     Input port: sensed (33, rpod.systems.sensed).
     Output ports:
         thruster_forces_C (24): the eight force vectors in C [N], thruster by thruster in the
-            order of rpod.models.thrusters.gimbaled_cuboid_8 (u*(0) or the fallback).
+            order of rpod.models.thrusters.gimbaled_cuboid_8 (u*(0) or the fallback); on a
+            fixed bank instead
+        thruster_levels (n): each thruster's u_k / f_max, clipped to [0, 1].
         nmpc_status (5): [status code (STATUS_CODES; -1 before the first solve), NmpcFallback,
             iterations (-1: unknown), solve time s, cost] of the last step.
         integral_state_T (3): xi_T (eq. 14) at the last integration step [m s].
@@ -186,9 +195,10 @@ class CoupledNmpcController(LeafSystem):
             `interval_s`, `solve(x0, warm_start)` and `shifted_warm_start(result)` are used.
         control_period_s: T_c, the solve period [s] (> 0).
         integral_step_s: the trapezoid step of xi_T [s] (> 0).
+        R_CCp: R_CC' of the planner's chaser frame (module docstring); None: C itself.
     """
 
-    def __init__(self, nmpc, control_period_s: float, integral_step_s: float = 1.0):
+    def __init__(self, nmpc, control_period_s: float, integral_step_s: float = 1.0, R_CCp=None):
         super().__init__()
         for name, value in (
             ("control_period_s", control_period_s),
@@ -198,11 +208,14 @@ class CoupledNmpcController(LeafSystem):
                 raise ValueError(f"{name}: must be positive, got {value}")
         self._nmpc = nmpc
         self._params = nmpc.params
+        self._R_CCp = None if R_CCp is None else np.asarray(R_CCp, dtype=float)
+        self._input_size = int(self._params.input_size)
+        layout = self._params.layout
         self._control_period_s = float(control_period_s)
         self._sensed_port = declare_sensed_input(self)
-        # Held outputs [forces (24), status (5)]; the integral [xi_T (3), p_last (3), t_last].
+        # Held outputs [u (m), status (5)]; the integral [xi_T (3), p_last (3), t_last].
         held0 = np.concatenate(
-            [np.zeros(cr.INPUT_SIZE), [NO_SOLVE_CODE, NmpcFallback.NONE, -1, 0.0, math.nan]]
+            [np.zeros(self._input_size), [NO_SOLVE_CODE, NmpcFallback.NONE, -1, 0.0, math.nan]]
         )
         self._held = self.DeclareDiscreteState(held0)
         integral0 = np.concatenate([np.zeros(3), np.full(3, math.nan), [math.nan]])
@@ -214,13 +227,24 @@ class CoupledNmpcController(LeafSystem):
         )
         self.DeclarePeriodicDiscreteUpdateEvent(float(integral_step_s), 0.0, self._integrate)
         held = {self.discrete_state_ticket(self._held)}
-        size = cr.INPUT_SIZE
-        self.DeclareVectorOutputPort(
-            "thruster_forces_C",
-            size,
-            lambda c, o: o.SetFromVector(c.get_discrete_state(self._held).get_value()[:size]),
-            held,
-        )
+        size = self._input_size
+        if layout.gimbaled:
+            self.DeclareVectorOutputPort(
+                "thruster_forces_C",
+                size,
+                lambda c, o: o.SetFromVector(c.get_discrete_state(self._held).get_value()[:size]),
+                held,
+            )
+        else:
+            f_max = layout.max_thrusts_N
+            self.DeclareVectorOutputPort(
+                "thruster_levels",
+                size,
+                lambda c, o: o.SetFromVector(
+                    np.clip(c.get_discrete_state(self._held).get_value()[:size] / f_max, 0, 1)
+                ),
+                held,
+            )
         self.DeclareVectorOutputPort(
             "nmpc_status",
             STATUS_SIZE,
@@ -256,7 +280,14 @@ class CoupledNmpcController(LeafSystem):
     # ------------------------------------------------------------------------------ events
 
     def _sensed(self, context) -> Sensed:
-        return Sensed.from_vector(self._sensed_port.Eval(context))
+        """The sensed bundle, the chaser's attitude that of the planner's frame C'."""
+        sensed = Sensed.from_vector(self._sensed_port.Eval(context))
+        if self._R_CCp is None:
+            return sensed
+        return sensed.with_chaser_attitude(
+            quaternion_wxyz(rotation_from_wxyz(sensed.q_IC) @ self._R_CCp),
+            self._R_CCp.T @ np.asarray(sensed.w_IC_C, dtype=float),
+        )
 
     def _integrate(self, context, discrete_state) -> None:
         """One trapezoid step of xi_T-dot = p_PtPc_T (eq. 14)."""
@@ -297,7 +328,7 @@ class CoupledNmpcController(LeafSystem):
             k = math.floor((t - memory.plan_time_s) / self._nmpc.interval_s + 1e-9)
             if k < self._nmpc.N:
                 return np.asarray(memory.plan.u[k], dtype=float), NmpcFallback.PREVIOUS_PLAN
-        return np.zeros(cr.INPUT_SIZE), NmpcFallback.ZERO_THRUST
+        return np.zeros(self._input_size), NmpcFallback.ZERO_THRUST
 
     def _control(self, context, state) -> None:
         """One receding-horizon step (eq. 23)."""

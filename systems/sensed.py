@@ -65,6 +65,12 @@ class Sensed:
         vector[_SLICES["target_attitude"]] = np.concatenate([q_IT, w_IT_T])
         return Sensed(vector)
 
+    def with_chaser_attitude(self, q_IC, w_IC_C) -> "Sensed":
+        """A copy whose chaser attitude and rate are these (e.g. a body-fixed frame's)."""
+        vector = np.array(self.vector, dtype=float)
+        vector[_SLICES["chaser_attitude"]] = np.concatenate([q_IC, w_IC_C])
+        return Sensed(vector)
+
     q_IT = property(lambda self: self.vector[13:17])
     w_IT_T = property(lambda self: self.vector[17:20])
     chaser_attitude = property(lambda self: self.vector[_SLICES["chaser_attitude"]])

@@ -24,6 +24,8 @@ def test_every_method_flies_the_same_200_starts_truth_fed_and_estimated():
     assert set(by_case) == {
         "soft_capture",
         "soft_capture_ekf",
+        "coupled_nmpc",
+        "coupled_nmpc_ekf",
         "los_corridor",
         "los_corridor_ekf",
         "hold_point_pd",

@@ -22,7 +22,9 @@ Applied forces. The bank's clipped forces are not an output port of ThrusterBank
 recomputed here from the logged command (`thruster_force_C`) by the bank's own rule
 (rpod.models.gimbal.GimbalLimits.clip, which the bank calls), and checked against the bank's
 own logged output: the resultant wrench of the recomputed forces must equal `body_wrench`
-(`coupled_applied_wrench_mismatch`, ~1e-13 N).
+(`coupled_applied_wrench_mismatch`, ~1e-13 N). On a fixed bank the applied force of thruster k
+is its logged level (`thruster_on`, after the PWM) times f_max along its nozzle: no gimbal, so
+the gimbal excess is 0 and the magnitude excess |f_k| - f_max.
 
 Gimbal angle (`gimbal_face_angles`): the pyramid of eq. 16 bounds |f.e| <= tan(alpha) f.n
 separately for its two lateral axes e in {i_K, k_K} (n the nominal direction), so its limit is
@@ -35,6 +37,7 @@ import math
 
 import numpy as np
 
+from rpod.diagrams.controllers.coupled_nmpc.problem import planning_frame_R_CCp
 from rpod.diagrams.scenario import make_thruster_layout
 from rpod.models import coupled_relative as cr
 from rpod.models.frames import lvlh_to_inertial, rotations_from_wxyz
@@ -63,16 +66,22 @@ def los_counted_outside(margin_m: np.ndarray, distance_m: np.ndarray) -> np.ndar
     )
 
 
-def truth_relative_states(params: cr.CoupledRelativeParams, log: dict) -> np.ndarray:
+def truth_relative_states(
+    params: cr.CoupledRelativeParams, log: dict, R_CCp: np.ndarray | None = None
+) -> np.ndarray:
     """x (n, 39) of the truth at every log sample, by cr.relative_state_from_absolute.
 
     The chaser is placed relative to the target (p_IT_I = 0 in the call, p_TC_I from the
     logged relative state), so no 7,000 km coordinates are subtracted; x[:, 21:] is then not
-    the target's orbit (not used here).
+    the target's orbit (not used here). R_CCp: the planner's chaser frame C' (problem.py), in
+    which params are given and R_TC' is measured; None: C itself.
     """
     R_IT = rotations_from_wxyz(log["q_IT"])
     R_IC = rotations_from_wxyz(log["q_IC"])
     R_IL = rotations_from_wxyz(log["q_IL"])
+    w_IC_C = np.asarray(log["w_IC_C"], dtype=float)
+    if R_CCp is not None:
+        R_IC, w_IC_C = R_IC @ R_CCp, w_IC_C @ R_CCp
     zero = np.zeros(3)
     states = np.empty((len(log["t"]), cr.STATE_SIZE))
     for i in range(len(states)):
@@ -80,7 +89,7 @@ def truth_relative_states(params: cr.CoupledRelativeParams, log: dict) -> np.nda
             R_IL[i], log["w_IL_L"][i], log["p_LC_L"][i], log["v_LC_L"][i]
         )
         states[i] = cr.relative_state_from_absolute(
-            params, R_IT[i], log["w_IT_T"][i], zero, zero, R_IC[i], log["w_IC_C"][i], p_TC_I, v_TC_I
+            params, R_IT[i], log["w_IT_T"][i], zero, zero, R_IC[i], w_IC_C[i], p_TC_I, v_TC_I
         )
     return states
 
@@ -181,7 +190,7 @@ def coupled_log(scenario, params: cr.CoupledRelativeParams, log: dict):
     out = {}
 
     # The truth's relative state (eqs. 3-8) and the eigenaxis error (eq. 5).
-    x = truth_relative_states(params, log)
+    x = truth_relative_states(params, log, planning_frame_R_CCp(scenario))
     R_TC = x[:, cr.R_TC_SLICE].reshape(n, 3, 3)
     out["coupled_eigenaxis_error_rad"] = np.array([cr.eigenaxis_error(R) for R in R_TC])
     out["coupled_w_TC_T_rad_s"] = x[:, cr.W_TC_T_SLICE]
@@ -189,13 +198,20 @@ def coupled_log(scenario, params: cr.CoupledRelativeParams, log: dict):
     out["coupled_v_PtPc_T_m_s"] = x[:, cr.V_PTPC_T_SLICE]
 
     # The forces the bank applied, their wrench, and the limits measured on them.
-    commanded = log.get("thruster_force_C", np.zeros((n, 3 * truth_layout.count)))
-    forces = applied_forces(truth_layout, commanded)
+    if truth_layout.gimbaled:
+        commanded = log.get("thruster_force_C", np.zeros((n, 3 * truth_layout.count)))
+        forces = applied_forces(truth_layout, commanded)
+        gimbal, magnitude = constraint_excess(truth_layout, forces)
+    else:  # a fixed bank (module docstring)
+        on = np.clip(log.get("thruster_on", np.zeros((n, truth_layout.count))), 0.0, 1.0)
+        thrust = on * truth_layout.max_thrusts_N
+        forces = (thrust[:, :, None] * truth_layout.directions_C[None]).reshape(n, -1)
+        gimbal = np.zeros(n)
+        magnitude = np.max(thrust - truth_layout.max_thrusts_N, axis=1)
     wrench = np.array([wrench_from_forces(truth_layout, f) for f in forces])
     out["coupled_thruster_forces_C_N"] = forces
     out["coupled_torque_C_Nm"] = wrench[:, :3]  # eq. 12
     out["coupled_force_C_N"] = wrench[:, 3:]  # eq. 11
-    gimbal, magnitude = constraint_excess(truth_layout, forces)
     out["coupled_max_thrust_N"] = np.full(n, float(np.max(truth_layout.max_thrusts_N)))
     out["coupled_gimbal_half_angle_rad"] = np.full(
         n, float(np.max(truth_layout.gimbal_half_angles_rad))

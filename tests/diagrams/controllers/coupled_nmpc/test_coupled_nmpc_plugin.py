@@ -94,7 +94,7 @@ def test_bundled_scenarios_start_at_sec_iv_with_their_problem_data_from_the_scen
 @pytest.mark.parametrize(
     ("yaml", "field"),
     [
-        ("thrusters: {layout: rcs_cube_12}", "thrusters.layout"),
+        ("controller: !CoupledNmpc {attitude_goal: facing}", "controller.attitude_goal"),
         ("orbit: {gravity: cw}", "orbit.gravity"),
         ("controller: !CoupledNmpc {max_thrust_N: 25.0}", "controller.max_thrust_N"),
         ("controller: !CoupledNmpc {nmpc: {intervals: 0}}", "controller.nmpc.intervals"),
@@ -127,12 +127,13 @@ def test_bad_config_is_one_error_naming_the_field(yaml, field):
     assert message.startswith(f"bad.yaml: {field}: ") and "\n" not in message
 
 
-def test_the_command_line_refuses_a_fixed_layout_in_one_line(tmp_path, capsys):
+def test_the_command_line_refuses_a_fixed_bank_with_a_gimbaled_solver_in_one_line(tmp_path, capsys):
     scenario = tmp_path / "bad.yaml"
-    scenario.write_text("controller: !CoupledNmpc {}\n")  # default thrusters: rcs_cube_12
+    scenario.write_text("controller: !CoupledNmpc {}\n")  # rcs_cube_12, solver ipopt
     assert cli.main(["run", str(scenario), "--out", str(tmp_path / "out")]) == 2
     line = capsys.readouterr().err.strip()
-    assert "\n" not in line and "thrusters.layout: !CoupledNmpc commands force vectors" in line
+    assert "\n" not in line
+    assert "controller.nmpc.solver: a fixed bank (rcs_cube_12) is planned by" in line
 
 
 @dataclasses.dataclass
