@@ -218,6 +218,11 @@ class CoupledRelativeParams:
         self.J_t = np.asarray(self.J_t, dtype=float)
         self.p_TPt_T = np.asarray(self.p_TPt_T, dtype=float)
         self.p_CPc_C = np.asarray(self.p_CPc_C, dtype=float)
+        if self.layout.gimbaled and self.layout.count != THRUSTER_COUNT:
+            raise ValueError(
+                f"a gimbaled layout must hold paper 001's {THRUSTER_COUNT} thrusters (the NLP's "
+                f"transcriptions are written for them), got {self.layout.count}"
+            )
         if self.layout.count < 1:
             raise ValueError("layout must hold at least one thruster")
         self.input_size = int(self.layout.command_size)  # 3 n gimbaled, n fixed

@@ -95,7 +95,8 @@ def _shootout_nmpc():
         weights=CostWeights(position=1.0, force=1e-3, terminal_position=30.0, terminal_velocity=67.0),
         nmpc=cn.CoupledNmpcSettings(
             horizon_s=30.0, intervals=12, solver="rti", max_iterations=20,
-            max_relative_rate_rad_s=0.3, sqp=SqpSettings(rti_osqp_eps=1e-3),
+            max_relative_rate_rad_s=0.3,
+            sqp=SqpSettings(rti_osqp_eps=1e-3, cold_start_max_iterations=40, osqp_max_iter=4000),
         ),
     )  # fmt: skip
 
@@ -165,3 +166,12 @@ def test_the_config_s_default_weights_are_sec_iv_s_bit_for_bit():
     paper = cr.CoupledNmpcWeights(Q_xi=config.integral_weight * np.eye(3))
     for name in ("Q_R", "D", "Q_w", "Q_p", "Q_xi", "W_tau", "W_f", "P"):
         assert np.array_equal(np.asarray(getattr(built, name)), np.asarray(getattr(paper, name)))
+
+
+def test_a_gimbaled_layout_other_than_paper_001_s_eight_is_refused():
+    from rpod.models.thrusters import gimbaled_cuboid_8
+
+    eight = gimbaled_cuboid_8(max_thrust_N=20.0)
+    six = dataclasses.replace(eight, thrusters=eight.thrusters[:6])
+    with pytest.raises(ValueError, match="gimbaled layout must hold paper 001's 8"):
+        cr.CoupledRelativeParams(layout=six)
