@@ -1,10 +1,11 @@
 """The shoot-out (issue 22) in one command: the campaign flown, its report, the committed table.
 
-    python benchmarks/shootout.py [--out runs/shootout] [--workers 2] [--reuse OLD]
+    python benchmarks/shootout.py [--out runs/shootout] [--workers 2] [--reuse OLD] [--report-only]
 
 Runs `rpod sweep shootout --out OUT` (which resumes: finished runs are not flown again; with
 `--reuse OLD`, the runs an earlier store finished under the same ids are recorded, not flown:
-a campaign that changes one case flies only that case, and the table says how many), then
+a campaign that changes one case flies only that case, and the table says how many; with
+`--report-only`, nothing is flown and the pending runs are reported as pending), then
 `rpod report OUT`, and writes benchmarks/results/shootout.md: the report's comparison of the
 methods (rpod.scenarios.comparison) with the commit, the machine and the campaign's wall time,
 and its three figures into benchmarks/results/shootout/. A section of the existing file headed
@@ -60,13 +61,16 @@ def main() -> int:
     parser.add_argument(
         "--reuse", help="an earlier results folder whose finished runs are recorded (rpod sweep)"
     )
+    parser.add_argument(
+        "--report-only", action="store_true", help="fly nothing: the table of the stored runs"
+    )
     args = parser.parse_args()
 
     start = time.perf_counter()
     sweep = ["rpod", "sweep", args.campaign, "--out", args.out, "--workers", str(args.workers)]
     if args.reuse:
         sweep += ["--reuse", args.reuse]
-    if subprocess.run(sweep, check=False).returncode != 0:
+    if not args.report_only and subprocess.run(sweep, check=False).returncode != 0:
         print("shootout: the sweep did not finish; run the same command again to resume")
         return 1
     elapsed = time.perf_counter() - start
@@ -75,6 +79,7 @@ def main() -> int:
     head = "\n\n".join(text.split("\n\n")[0:3])  # the campaign, its success, its groups
     run_wall = sum(r["wall_time_s"] or 0.0 for r in rows)
     reused = sum(1 for r in rows if (r["worker"] or "").startswith("reused from"))
+    pending = sum(1 for r in rows if r["status"] == "pending")
     reused_line = (
         f"{reused} of the runs were recorded from an earlier store (`rpod sweep --reuse`): the "
         "cases whose scenarios, and so run ids, did not change; they were flown by the code "
@@ -106,6 +111,11 @@ def main() -> int:
             "stored are not flown again)."
         ),
         *([reused_line] if reused else []),
+        *(
+            [f"{pending} runs are still pending (not flown yet): the table counts the rest."]
+            if pending
+            else []
+        ),
         "",
         "```",
         head,
