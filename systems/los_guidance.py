@@ -527,7 +527,6 @@ class LosGuidance(LeafSystem):
             x_ref = np.concatenate([p_ref_T, v_ref_T])
         elif mode is Regime.ENTRY:
             p_ref_T = self._entry_reference(view, speed_limit)
-            x_ref = np.concatenate([p_ref_T, v_ref_T])  # not filtered: kept for the record
         else:
             p_ref_T = self._p_KH_K
             x_ref = np.concatenate([p_ref_T, v_ref_T])
