@@ -56,6 +56,7 @@ from rpod.models.orbit import initial_orbit_state, lvlh_of
 from rpod.models.thrusters import ThrusterLayout
 from rpod.systems.allocator import WrenchAllocator
 from rpod.systems.ideal_actuator import IdealActuator
+from rpod.systems.lifetime import release_diagram
 from rpod.systems.navigation import NAVIGATION_LOG_KEYS, RelativeNavigation
 from rpod.systems.navigation_config import Ekf
 from rpod.systems.pwm import PwmModulator
@@ -112,7 +113,9 @@ def sensed_at_start(scenario: Scenario) -> np.ndarray:
     reads first under `navigation: !Truth`, number for number (the same truth outputs)."""
     truth = make_truth(scenario, None, False)
     context = truth.CreateDefaultContext()
-    return np.concatenate([truth.GetOutputPort(name).Eval(context) for name, _ in SENSED_FIELDS])
+    sensed = np.concatenate([truth.GetOutputPort(name).Eval(context) for name, _ in SENSED_FIELDS])
+    release_diagram(truth)  # freed on return (rpod.systems.lifetime)
+    return sensed
 
 
 def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHandles]:
@@ -139,7 +142,9 @@ def build_diagram(scenario: Scenario, meshcat=None) -> tuple[Diagram, DiagramHan
     navigation = None
     controller_scenario = scenario  # what the controller is built from
     if estimated:
-        navigation = add_navigation(builder, scenario, make_truth(scenario, None, False))
+        coasting_truth = make_truth(scenario, None, False)
+        navigation = add_navigation(builder, scenario, coasting_truth)
+        release_diagram(coasting_truth)  # its lead-in is flown: freed (rpod.systems.lifetime)
         sensed_port = navigation.GetOutputPort("sensed")
         controller_scenario = with_estimated_inertia(scenario, navigation)
     else:

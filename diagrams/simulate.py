@@ -32,6 +32,7 @@ from rpod.diagrams.mission import (
 )
 from rpod.diagrams.navigation_results import navigation_log, navigation_summary
 from rpod.diagrams.scenario import Scenario, scenario_warnings
+from rpod.systems.lifetime import release_diagram
 from rpod.systems.safety_monitor import ContactWatch
 from rpod.systems.step_timer import compute_summary
 
@@ -299,4 +300,8 @@ def simulate(scenario: Scenario, meshcat=None, progress=None) -> SimulationResul
         integrator_steps=int(integ.get_num_steps_taken()),
         derivative_evaluations=int(integ.get_num_derivative_evaluations()),
     )
+    # The run is over: let the diagram be freed with its last reference (pydrake keeps a
+    # diagram with Python systems alive otherwise; rpod.systems.lifetime).
+    simulator.clear_monitor()
+    release_diagram(diagram, simulator, context)
     return SimulationResult(log=log, summary=summary)

@@ -23,11 +23,11 @@ burned since shows up as a small thrust surplus, which the guidance's feedback a
 import numpy as np
 from pydrake.common.value import Value
 from pydrake.math import RotationMatrix
-from pydrake.systems.framework import LeafSystem
 
 from rpod.models.frames import rotation_from_wxyz
 from rpod.models.rigid_body import attitude_pd_torque
 from rpod.systems.capture_pointing import CapturePointing
+from rpod.systems.lifetime import LeafSystem
 from rpod.systems.sensed import Sensed, declare_sensed_input
 
 
@@ -70,7 +70,7 @@ class AccelerationToWrench(LeafSystem):
         self.DeclareVectorOutputPort(
             "body_wrench_desired",
             6,
-            lambda c, o: o.SetFromVector(c.get_discrete_state(self._wrench).get_value()),
+            lambda c, o, i=self._wrench: o.SetFromVector(c.get_discrete_state(i).get_value()),
             {self.discrete_state_ticket(self._wrench)},
         )
 

@@ -17,9 +17,10 @@ would be re-solved at every integrator stage.
 from __future__ import annotations
 
 import numpy as np
-from pydrake.systems.framework import BasicVector, Context, LeafSystem
+from pydrake.systems.framework import BasicVector, Context
 
 from rpod.models.thrusters import DutyAllocator, ThrusterLayout, validate_layout, wrench_matrix
+from rpod.systems.lifetime import LeafSystem
 
 
 class WrenchAllocator(LeafSystem):

@@ -52,11 +52,11 @@ import math
 
 import numpy as np
 from pydrake.common.value import Value
-from pydrake.systems.framework import LeafSystem
 
 from rpod.models import coupled_relative as cr
 from rpod.models.frames import cross, quaternion_wxyz, rotation_from_wxyz
 from rpod.planners.coupled_nmpc import NmpcStatus
+from rpod.systems.lifetime import LeafSystem
 from rpod.systems.sensed import Sensed, declare_sensed_input
 from rpod.systems.step_timer import StepTimer
 
@@ -227,12 +227,13 @@ class CoupledNmpcController(LeafSystem):
         )
         self.DeclarePeriodicDiscreteUpdateEvent(float(integral_step_s), 0.0, self._integrate)
         held = {self.discrete_state_ticket(self._held)}
-        size = self._input_size
+        # The lambdas capture the state indices, never self (rpod.systems.lifetime).
+        size, held_index, integral_index = self._input_size, self._held, self._integral
         if layout.gimbaled:
             self.DeclareVectorOutputPort(
                 "thruster_forces_C",
                 size,
-                lambda c, o: o.SetFromVector(c.get_discrete_state(self._held).get_value()[:size]),
+                lambda c, o: o.SetFromVector(c.get_discrete_state(held_index).get_value()[:size]),
                 held,
             )
         else:
@@ -241,20 +242,20 @@ class CoupledNmpcController(LeafSystem):
                 "thruster_levels",
                 size,
                 lambda c, o: o.SetFromVector(
-                    np.clip(c.get_discrete_state(self._held).get_value()[:size] / f_max, 0, 1)
+                    np.clip(c.get_discrete_state(held_index).get_value()[:size] / f_max, 0, 1)
                 ),
                 held,
             )
         self.DeclareVectorOutputPort(
             "nmpc_status",
             STATUS_SIZE,
-            lambda c, o: o.SetFromVector(c.get_discrete_state(self._held).get_value()[size:]),
+            lambda c, o: o.SetFromVector(c.get_discrete_state(held_index).get_value()[size:]),
             held,
         )
         self.DeclareVectorOutputPort(
             "integral_state_T",
             3,
-            lambda c, o: o.SetFromVector(c.get_discrete_state(self._integral).get_value()[:3]),
+            lambda c, o: o.SetFromVector(c.get_discrete_state(integral_index).get_value()[:3]),
             {self.discrete_state_ticket(self._integral)},
         )
 

@@ -60,11 +60,12 @@ from pydrake.geometry import (
     Sphere,
 )
 from pydrake.math import RigidTransform, RotationMatrix
-from pydrake.systems.framework import DiagramBuilder, LeafSystem, OutputPort
+from pydrake.systems.framework import DiagramBuilder, OutputPort
 
 from rpod.models.coupled_relative import los_polyhedron
 from rpod.models.gimbal import GimbalLimits
 from rpod.models.thrusters import ThrusterLayout
+from rpod.systems.lifetime import LeafSystem
 from rpod.systems.scene import RendezvousScene, convex_hull_obj
 
 LOS_PYRAMID_RGBA = Rgba(0.55, 0.30, 0.85, 0.20)

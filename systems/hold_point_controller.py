@@ -31,13 +31,13 @@ import math
 
 import numpy as np
 from pydrake.common.value import Value
-from pydrake.systems.framework import LeafSystem
 
 from rpod.models.config import bounded, check_bounds, positive
 from rpod.models.cw import cw_acceleration
 from rpod.models.docking import DockingGeometry
 from rpod.models.frames import cross, rotate_towards, rotation_from_wxyz
 from rpod.systems.capture_pointing import CapturePointing
+from rpod.systems.lifetime import LeafSystem, weak_method
 from rpod.systems.sensed import Sensed, declare_sensed_input
 from rpod.systems.step_timer import StepTimer
 
@@ -134,14 +134,15 @@ class HoldPointController(LeafSystem):
         self.DeclarePeriodicUnrestrictedUpdateEvent(config.control_period_s, 0.0, update)
         self.DeclareInitializationUnrestrictedUpdateEvent(update)  # valid output at t=0
         xd = {self.discrete_state_ticket(self._output_state)}
+        held = weak_method(self._held)  # not self in a lambda: rpod.systems.lifetime
         self.DeclareVectorOutputPort(
-            "body_wrench_desired", 6, lambda c, o: o.SetFromVector(self._held(c)[0:6]), xd
+            "body_wrench_desired", 6, lambda c, o: o.SetFromVector(held(c)[0:6]), xd
         )
         self.DeclareVectorOutputPort(
-            "hold_point_L", 3, lambda c, o: o.SetFromVector(self._held(c)[6:9]), xd
+            "hold_point_L", 3, lambda c, o: o.SetFromVector(held(c)[6:9]), xd
         )
         self.DeclareVectorOutputPort(
-            "reference_L", 3, lambda c, o: o.SetFromVector(self._held(c)[9:12]), xd
+            "reference_L", 3, lambda c, o: o.SetFromVector(held(c)[9:12]), xd
         )
 
     def _held(self, context) -> np.ndarray:

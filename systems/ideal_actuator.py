@@ -19,10 +19,11 @@ acceleration in L is paper 004's |a_i| <= a_max.
 
 import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import LeafSystem, ValueProducer
+from pydrake.systems.framework import ValueProducer
 
 from rpod.models.frames import rotation_from_wxyz
 from rpod.models.thrusters import STANDARD_GRAVITY_M_S2
+from rpod.systems.lifetime import LeafSystem, weak_method
 from rpod.systems.sensed import Sensed, declare_sensed_input
 
 QUANTITIES = ("acceleration", "force")
@@ -74,7 +75,9 @@ class IdealActuator(LeafSystem):
         }
         self._force_entry = self.DeclareCacheEntry(
             "bounded force in C",
-            ValueProducer(allocate=lambda: AbstractValue.Make(np.zeros(4)), calc=self._calc_force),
+            ValueProducer(
+                allocate=lambda: AbstractValue.Make(np.zeros(4)), calc=weak_method(self._calc_force)
+            ),
             prerequisites_of_calc=inputs,
         )
         uses = {self._force_entry.ticket()}

@@ -70,7 +70,7 @@ import math
 
 import numpy as np
 from pydrake.common.value import Value
-from pydrake.systems.framework import EventStatus, LeafSystem
+from pydrake.systems.framework import EventStatus
 
 from rpod.models.config import ConfigError, bounded, check_bounds, count, positive
 from rpod.models.cw import cw_acceleration
@@ -78,6 +78,7 @@ from rpod.models.frames import cross, quaternion_wxyz, rotate_towards, rotation_
 from rpod.models.los_corridor import VIOLATION_TOLERANCE_M, LosCorridor, sync_range_m
 from rpod.planners.los_corridor_mpc import LosCorridorMpc, LosMpcSettings, MpcStatus
 from rpod.planners.los_prediction import BodyFrameStep, TargetState, cw_body_frame_matrices
+from rpod.systems.lifetime import LeafSystem, weak_method
 from rpod.systems.sensed import Sensed, declare_sensed_input
 from rpod.systems.step_timer import StepTimer
 
@@ -397,17 +398,18 @@ class LosGuidance(LeafSystem):
             config.control_period_s, 0.0, self.step_timer.timed(self._update)
         )
         held = {self.discrete_state_ticket(self._held)}
+        held_value = weak_method(self._held_value)  # not self in a lambda: lifetime.py
         self.DeclareVectorOutputPort(
             "acceleration_command_L",
             3,
-            lambda c, o: o.SetFromVector(self._held_value(c)[0:3]),
+            lambda c, o: o.SetFromVector(held_value(c)[0:3]),
             held,
         )
         self.DeclareVectorOutputPort(
-            "nominal_command_L", 3, lambda c, o: o.SetFromVector(self._held_value(c)[3:6]), held
+            "nominal_command_L", 3, lambda c, o: o.SetFromVector(held_value(c)[3:6]), held
         )
         self.DeclareVectorOutputPort(
-            "guidance_status", 5, lambda c, o: o.SetFromVector(self._held_value(c)[6:11]), held
+            "guidance_status", 5, lambda c, o: o.SetFromVector(held_value(c)[6:11]), held
         )
         sensed = {self.input_port_ticket(self._sensed_port.get_index())}
         self.DeclareVectorOutputPort("hold_point_L", 3, self._calc_hold_point, sensed)

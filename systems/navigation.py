@@ -42,7 +42,6 @@ import math
 
 import numpy as np
 from pydrake.common.value import Value
-from pydrake.systems.framework import LeafSystem
 
 from rpod.models import relative_navigation as rn
 from rpod.models.frames import (
@@ -57,6 +56,7 @@ from rpod.models.frames import (
 from rpod.models.gravity import gravity_acceleration_xyz
 from rpod.models.orbit import lvlh_of
 from rpod.models.relative_orbit import TargetOrbit
+from rpod.systems.lifetime import LeafSystem
 from rpod.systems.navigation_config import Ekf, scaled_sensors
 from rpod.systems.sensed import SENSED_SIZE, Sensed
 

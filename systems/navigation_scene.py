@@ -16,9 +16,9 @@ from __future__ import annotations
 import numpy as np
 from pydrake.geometry import Meshcat, Rgba
 from pydrake.math import RigidTransform, RotationMatrix
-from pydrake.systems.framework import LeafSystem
 
 from rpod.models.frames import rotation_from_wxyz
+from rpod.systems.lifetime import LeafSystem
 from rpod.systems.scene import SceneGeometry, body_shape
 from rpod.systems.sensed import SENSED_SIZE, Sensed
 

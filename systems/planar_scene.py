@@ -33,10 +33,11 @@ import math
 import numpy as np
 from pydrake.geometry import Meshcat, Rgba, Sphere
 from pydrake.math import RigidTransform, RotationMatrix
-from pydrake.systems.framework import DiagramBuilder, LeafSystem, OutputPort
+from pydrake.systems.framework import DiagramBuilder, OutputPort
 
 from rpod.models import planar_approach as pa
 from rpod.models.frames import rotation_from_wxyz
+from rpod.systems.lifetime import LeafSystem
 from rpod.systems.sensed import SENSED_PORT, Sensed, declare_sensed_input
 
 STATE_RGBA = {

@@ -64,11 +64,12 @@ import math
 
 import numpy as np
 from pydrake.common.value import Value
-from pydrake.systems.framework import Context, LeafSystem, State
+from pydrake.systems.framework import Context, State
 from pydrake.trajectories import PiecewisePolynomial
 
 from rpod.models.config import ConfigError
 from rpod.models.frames import rotation_from_wxyz
+from rpod.systems.lifetime import LeafSystem
 from rpod.systems.plan_at_start import PlannedPath, declare_planned_path_output
 from rpod.systems.sensed import Sensed, declare_sensed_input
 
@@ -350,8 +351,8 @@ class PlanarTrackingController(LeafSystem):
             self.DeclareVectorOutputPort(
                 name,
                 size,
-                lambda context, output, a=start, b=start + size: output.SetFromVector(
-                    context.get_discrete_state(self._held_index).get_value()[a:b]
+                lambda context, output, a=start, b=start + size, i=self._held_index: (
+                    output.SetFromVector(context.get_discrete_state(i).get_value()[a:b])
                 ),
                 held,
             )

@@ -57,7 +57,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem
+from pydrake.systems.framework import BasicVector, Context, DiscreteValues
 
 from rpod.models.modulation import (
     DEFAULT_SCHEME,
@@ -72,6 +72,7 @@ from rpod.models.modulation import (
     round_period,
     schmitt_slots,
 )
+from rpod.systems.lifetime import LeafSystem
 
 
 class PwmModulator(LeafSystem):

@@ -29,11 +29,11 @@ Definitions.
 import math
 
 import numpy as np
-from pydrake.systems.framework import LeafSystem
 
 from rpod.models.docking import DockingGeometry
 from rpod.models.frames import cross, lvlh_to_inertial, rotation_from_wxyz
 from rpod.models.shapes import ContactTest, ConvexPolytope, separation_distance
+from rpod.systems.lifetime import LeafSystem
 from rpod.systems.sensed import SENSED_PORT, Sensed, declare_sensed_input
 
 

@@ -84,10 +84,11 @@ from pydrake.geometry import (
 )
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.perception import BaseField, Fields, PointCloud
-from pydrake.systems.framework import DiagramBuilder, EventStatus, LeafSystem, OutputPort
+from pydrake.systems.framework import DiagramBuilder, EventStatus, OutputPort
 
 from rpod.models.config import ConfigError
 from rpod.models.frames import rotation_from_wxyz
+from rpod.systems.lifetime import LeafSystem
 from rpod.systems.sensed import SENSED_PORT, Sensed, declare_sensed_input
 
 CAMERA_FOV_DEG = 60.0  # vertical field of view of the recording's camera

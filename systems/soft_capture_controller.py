@@ -105,7 +105,6 @@ import math
 import numpy as np
 from pydrake.common.value import Value
 from pydrake.math import RotationMatrix
-from pydrake.systems.framework import LeafSystem
 
 from rpod.models.config import ConfigError, bounded, check_bounds, count, positive
 from rpod.models.cw import cw_acceleration, cw_state_transition, cw_zoh_input
@@ -120,6 +119,7 @@ from rpod.models.shapes import (
 from rpod.planners.checked_plan import CheckedPlan, predict_plan_check
 from rpod.planners.pointing import min_rotation
 from rpod.planners.soft_capture import PlanStatus, SoftCaptureConfig, SoftCapturePlanner
+from rpod.systems.lifetime import LeafSystem
 from rpod.systems.plan_at_start import PlannedPath, declare_planned_path_output
 from rpod.systems.sensed import Sensed, declare_sensed_input
 from rpod.systems.step_timer import StepTimer
@@ -387,8 +387,8 @@ class SoftCaptureController(LeafSystem):
             self.DeclareVectorOutputPort(
                 name,
                 size,
-                lambda context, output, a=start, b=start + size: output.SetFromVector(
-                    context.get_discrete_state(self._held).get_value()[a:b]
+                lambda context, output, a=start, b=start + size, i=self._held: output.SetFromVector(
+                    context.get_discrete_state(i).get_value()[a:b]
                 ),
                 xd,
             )

@@ -18,6 +18,8 @@ import time
 
 import numpy as np
 
+from rpod.systems.lifetime import weak_method
+
 
 class StepTimer:
     """Times each call of the callbacks it wraps (perf_counter, seconds)."""
@@ -26,8 +28,11 @@ class StepTimer:
         self._durations = array.array("d")
 
     def timed(self, callback):
-        """callback wrapped: each call's wall time is kept, its result returned unchanged."""
-        durations, clock = self._durations, time.perf_counter
+        """callback wrapped: each call's wall time is kept, its result returned unchanged.
+
+        A bound method is held weakly (rpod.systems.lifetime.weak_method): the wrapper goes to
+        C++ as an event handler and must not keep its system alive."""
+        durations, clock, callback = self._durations, time.perf_counter, weak_method(callback)
 
         def wrapper(*args):
             start = clock()

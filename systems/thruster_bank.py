@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import BasicVector, Context, LeafSystem, ValueProducer
+from pydrake.systems.framework import BasicVector, Context, ValueProducer
 
 from rpod.models.gimbal import GimbalLimits, force_to_wrench_matrix
 from rpod.models.thrusters import (
@@ -26,6 +26,7 @@ from rpod.models.thrusters import (
     validate_layout,
     wrench_matrix,
 )
+from rpod.systems.lifetime import LeafSystem, weak_method
 
 
 class ThrusterBank(LeafSystem):
@@ -87,8 +88,8 @@ class ThrusterBank(LeafSystem):
         self._clipped_entry = self.DeclareCacheEntry(
             "clipped thruster command",
             ValueProducer(
-                allocate=lambda: AbstractValue.Make(np.zeros(self._clipped_size)),
-                calc=self._calc_clipped,
+                allocate=lambda size=self._clipped_size: AbstractValue.Make(np.zeros(size)),
+                calc=weak_method(self._calc_clipped),
             ),
             prerequisites_of_calc={self.input_port_ticket(self._command_port.get_index())},
         )

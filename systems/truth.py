@@ -57,7 +57,7 @@ import math
 
 import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import BasicVector, Context, LeafSystem, ValueProducer
+from pydrake.systems.framework import BasicVector, Context, ValueProducer
 
 from rpod.models.frames import (
     inertial_to_lvlh,
@@ -73,6 +73,7 @@ from rpod.models.gravity import (
 from rpod.models.orbit import OrbitConfig, initial_orbit_state, lvlh_of
 from rpod.models.rigid_body import validate_inertia
 from rpod.models.thrusters import ThrusterLayout, validate_layout, wrench_matrix
+from rpod.systems.lifetime import LeafSystem, weak_method
 
 # The state layout (module docstring).
 STATE_SIZE = 27
@@ -206,8 +207,8 @@ class Truth(LeafSystem):
             self._thrust_entry = self.DeclareCacheEntry(
                 "applied wrench and mass flow",
                 ValueProducer(
-                    allocate=lambda: AbstractValue.Make((self._zero_thrust,)),
-                    calc=self._calc_applied_wrench,
+                    allocate=lambda zero=self._zero_thrust: AbstractValue.Make((zero,)),
+                    calc=weak_method(self._calc_applied_wrench),
                 ),
                 prerequisites_of_calc={
                     self.input_port_ticket(self._wrench_port.get_index()),
@@ -233,10 +234,10 @@ class Truth(LeafSystem):
             self._thrust_entry = self.DeclareCacheEntry(
                 "thrust of the clipped command",
                 ValueProducer(
-                    allocate=lambda: AbstractValue.Make(
-                        (self._zero_thrust, np.zeros(self._n), np.zeros(self._n))
+                    allocate=lambda zero=self._zero_thrust, n=self._n: AbstractValue.Make(
+                        (zero, np.zeros(n), np.zeros(n))
                     ),
-                    calc=self._calc_thrust,
+                    calc=weak_method(self._calc_thrust),
                 ),
                 prerequisites_of_calc={self.input_port_ticket(self._command_port.get_index())},
             )
@@ -253,7 +254,9 @@ class Truth(LeafSystem):
         # reads them once per control period, the loggers once per sample).
         self._kinematics_entry = self.DeclareCacheEntry(
             "lvlh kinematics",
-            ValueProducer(allocate=lambda: AbstractValue.Make(()), calc=self._calc_kinematics),
+            ValueProducer(
+                allocate=lambda: AbstractValue.Make(()), calc=weak_method(self._calc_kinematics)
+            ),
             prerequisites_of_calc=xc,
         )
         kinematics = {self._kinematics_entry.ticket()}

@@ -1,12 +1,13 @@
-"""simulate(): contact of the true shapes as one event for every run, and a recording that
-leaves the physics exactly as it is."""
+"""simulate(): contact of the true shapes as one event for every run, a recording that
+leaves the physics exactly as it is, and a run that leaves no system behind."""
 
 import dataclasses
+import gc
 import re
 
 import numpy as np
 import pytest
-from pydrake.systems.framework import LeafSystem
+from pydrake.systems.framework import LeafSystem, System
 
 from rpod.diagrams.controller_seam import (
     Actuation,
@@ -22,6 +23,7 @@ from rpod.diagrams.scenario import Scenario
 from rpod.diagrams.simulate import simulate
 from rpod.scenarios.campaign import apply_overrides
 from rpod.scenarios.loader import load_scenario
+from rpod.systems.navigation_config import Ekf
 from rpod.systems.sensed import SENSED_SIZE
 
 
@@ -172,3 +174,27 @@ def test_thruster_duty_is_logged_only_where_thrusters_fly():
     expected = np.linalg.norm(forces, axis=2) / 20.0  # the bundled bank: 8 x 20 N
     np.testing.assert_allclose(log["thruster_duty"], expected, rtol=1e-12)
     assert np.all(log["thruster_duty"] <= 1.0 + 1e-9) and np.any(log["thruster_duty"] > 0.01)
+
+
+def _systems_alive() -> int:
+    gc.collect()
+    return sum(1 for item in gc.get_objects() if isinstance(item, System))
+
+
+@pytest.mark.parametrize(
+    "name, overrides, drawn",
+    [
+        ("hold_point", {"duration_s": 5.0, "navigation": Ekf()}, False),
+        ("soft_capture", {"duration_s": 5.0}, True),
+        ("los_corridor_thrusters", {"duration_s": 5.0}, False),
+        ("asteroid_grasp", {"duration_s": 5.0}, False),
+    ],
+)
+def test_a_run_leaves_no_system_behind(name, overrides, drawn):
+    """simulate() frees its diagram and every system in it (rpod.systems.lifetime): a
+    campaign's runner does thousands of runs in one process."""
+    _, base = load_scenario(name)
+    scenario = dataclasses.replace(base, **overrides)
+    before = _systems_alive()
+    simulate(scenario, make_headless_meshcat() if drawn else None)
+    assert _systems_alive() == before
