@@ -13,6 +13,13 @@ Cases: the single-scenario configuration (N_p = 40, R_du = 1e4 I, 600 s) and the
 one (N_p = 20, R_du = diag(1e5, 1e4, 1e5), 400 s), each flown from los_corridor's start.
 Goal (issue 10): at most 1.5x raw, and a p99 under 3 ms here.
 
+Then the solvers compared on the same replayed QPs (issue 23: p99 at most 1.5 ms, maximum at
+most 5 ms, no step without a usable input): ours with OSQP (as flown), ours with PIQP
+(`qp_solver: piqp`, an interior point from its own start each step), and Clarabel's Python
+package on the identical QP (an interior point, set up each step: its API has no in-place
+update of the constraint matrix's values; absent: the row says so). Each step's first input is
+compared with Clarabel's.
+
     python benchmarks/bench_los_corridor_mpc.py
 
 Writes benchmarks/results/los_corridor_mpc.md.
@@ -26,6 +33,7 @@ import time
 
 import numpy as np
 import osqp
+import scipy.sparse as sp
 from machine import machine_line, write_results  # benchmarks/machine.py, beside this script
 
 from rpod.diagrams.simulate import simulate
@@ -97,6 +105,85 @@ def replay(calls, settings, corridor) -> dict:
     }
 
 
+def _clarabel_u0(mpc, call) -> tuple[np.ndarray | None, float, int]:
+    """(u_0, wall time [s], iterations) of Clarabel's Python package on the step's QP."""
+    import clarabel
+
+    P, q, A, l, u = mpc.qp(*call[:5], u_nom=call[5])
+    eq = l == u
+    upper, lower = ~eq & np.isfinite(u), ~eq & np.isfinite(l)
+    A_cl = sp.vstack([A[eq], A[upper], -A[lower]]).tocsc()
+    b_cl = np.concatenate([l[eq], u[upper], -l[lower]])
+    cones = [
+        clarabel.ZeroConeT(int(eq.sum())),
+        clarabel.NonnegativeConeT(int(upper.sum() + lower.sum())),
+    ]
+    settings = clarabel.DefaultSettings()
+    settings.verbose = False
+    start = time.perf_counter()
+    solution = clarabel.DefaultSolver(P, q, A_cl, b_cl, cones, settings).solve()
+    elapsed = time.perf_counter() - start
+    if str(solution.status) != "Solved":
+        return None, elapsed, int(solution.iterations)
+    z = np.asarray(solution.x)
+    return z[mpc._u_offset : mpc._u_offset + 3], elapsed, int(solution.iterations)
+
+
+def compare_solvers(calls, settings, corridor) -> list[dict]:
+    """Per-step times [ms], iterations, usable steps and |u_0 - Clarabel's u_0| of ours with
+    each QP solver and of raw Clarabel, interleaved step by step."""
+    try:
+        import clarabel
+    except ImportError:
+        clarabel_version = None
+    else:
+        clarabel_version = clarabel.__version__
+    solvers = {
+        name: LosCorridorMpc(
+            dataclasses.replace(settings, qp_solver=name), corridor.A_c, corridor.b_c
+        )
+        for name in los_corridor_mpc.QP_SOLVERS
+    }
+    stats = {name: {"ms": [], "iterations": [], "usable": [], "u0": []} for name in solvers}
+    reference = {"ms": [], "iterations": [], "usable": [], "u0": []}
+    for call in calls:
+        for name, mpc in solvers.items():
+            result = mpc.solve(*call)
+            stats[name]["ms"].append(1e3 * result.solve_time_s)
+            stats[name]["iterations"].append(result.iterations)
+            stats[name]["usable"].append(result.solved)
+            stats[name]["u0"].append(result.u0)
+        if clarabel_version is not None:
+            u0, elapsed, iterations = _clarabel_u0(solvers["osqp"], call)
+            reference["ms"].append(1e3 * elapsed)
+            reference["iterations"].append(iterations)
+            reference["usable"].append(u0 is not None)
+            reference["u0"].append(u0)
+    rows = []
+    for name, data in [*stats.items(), (f"clarabel {clarabel_version} (raw)", reference)]:
+        if not data["ms"]:
+            rows.append({"name": "clarabel (raw)", "absent": True})
+            continue
+        gaps = [
+            float(np.max(np.abs(u0 - ref)))
+            for u0, ref in zip(data["u0"], reference["u0"], strict=False)
+            if u0 is not None and ref is not None
+        ]
+        ms = np.array(data["ms"])
+        rows.append(
+            {
+                "name": name,
+                "median": float(np.median(ms)),
+                "p99": float(np.percentile(ms, 99)),
+                "max": float(ms.max()),
+                "iterations": (np.median(data["iterations"]), max(data["iterations"])),
+                "unusable": int(np.count_nonzero(~np.array(data["usable"]))),
+                "gap": (float(np.median(gaps)), float(np.max(gaps))) if gaps else None,
+            }
+        )
+    return rows
+
+
 def cases():
     """(name, scenario) of each row."""
     _, single = load_scenario("los_corridor")
@@ -114,11 +201,23 @@ def cases():
 
 def main() -> None:
     load = os.getloadavg()
-    rows = []
+    rows, solver_rows = [], []
     for name, scenario in cases():
         calls, summary = record(scenario)
         config = scenario.controller
         m = replay(calls, config.mpc_settings(), config.corridor())
+        for row in compare_solvers(calls, config.mpc_settings(), config.corridor()):
+            if row.get("absent"):
+                solver_rows.append(f"| {name} | clarabel (raw) | Python package not installed |")
+                continue
+            gap = "--" if row["gap"] is None else f"{row['gap'][0]:.1e} / {row['gap'][1]:.1e}"
+            goal = row["p99"] <= 1.5 and row["max"] <= 5.0 and row["unusable"] == 0
+            solver_rows.append(
+                f"| {name} | {row['name']} | {row['median']:.3f} | {row['p99']:.3f} | "
+                f"{row['max']:.2f} | {row['iterations'][0]:.0f} / {row['iterations'][1]} | "
+                f"{row['unusable']} | {gap} | {'met' if goal else 'NOT met'} |"
+            )
+            print(solver_rows[-1], file=sys.stderr, flush=True)
         ours, raw = m["ours"], m["raw"]
         slow = int(np.count_nonzero(ours > 3.0))
         rows.append(
@@ -161,6 +260,24 @@ def main() -> None:
             "exceeds a_max there), raw OSQP runs to its iteration limit and ours does not. The "
             "slowest steps are the first two, cold."
         ),
+        "",
+        "## QP solvers on the same replayed QPs (issue 23)",
+        "",
+        (
+            "Each step's QP solved by ours with OSQP (as flown: ADMM, the shifted warm start, "
+            "eps 1e-4), ours with PIQP (`mpc: {qp_solver: piqp}`: proximal interior point, its "
+            "default tolerances, no warm start) and Clarabel's Python package on the identical "
+            "QP (interior point, set up every step); interleaved step by step, same process. "
+            "Gap: |u_0 - Clarabel's u_0|, median / max [m/s^2]. Goal: p99 at most 1.5 ms, "
+            "maximum at most 5 ms, no step without a usable input."
+        ),
+        "",
+        (
+            "| case | solver | median (ms) | p99 (ms) | max (ms) | iterations median / max | "
+            "steps without a usable input | gap to Clarabel's u_0 | goal |"
+        ),
+        "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | --- |",
+        *solver_rows,
     ]
     write_results(RESULTS, lines)
 

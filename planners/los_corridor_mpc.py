@@ -61,11 +61,13 @@ import time
 
 import numpy as np
 import osqp
+import piqp
 import scipy.sparse as sp
 
 from rpod.models.config import ConfigError, bounded, check_bounds, count, positive
 
 KEEP_OUT_FACTOR = 10.0  # the keep-out's penalty over the corridor's: the target first
+QP_SOLVERS = ("osqp", "piqp")
 
 
 class MpcStatus(str, enum.Enum):
@@ -78,6 +80,13 @@ class MpcStatus(str, enum.Enum):
     MAX_ITERATIONS = "max_iterations"
     OTHER = "other"
 
+
+_PIQP_STATUS = {
+    piqp.PIQP_SOLVED: MpcStatus.SOLVED,
+    piqp.PIQP_MAX_ITER_REACHED: MpcStatus.MAX_ITERATIONS,
+    piqp.PIQP_PRIMAL_INFEASIBLE: MpcStatus.PRIMAL_INFEASIBLE,
+    piqp.PIQP_DUAL_INFEASIBLE: MpcStatus.DUAL_INFEASIBLE,
+}
 
 _OSQP_STATUS = {
     "solved": MpcStatus.SOLVED,
@@ -127,6 +136,11 @@ class LosMpcSettings:
         corridor_penalty: rho of the best-effort QP (module docstring), per metre outside the
             corridor per predicted step; 0: no best-effort QP (what a failed hard QP flies is
             then the fallback chain alone, as the paper does).
+        qp_solver: "osqp" (ADMM, warm-started by the shift; eps_abs, eps_rel, polishing and
+            shift_warm_start are its settings) or "piqp" (PIQP's proximal interior point on
+            the same QP, from its own start every step, at its default tolerances, 1e-8
+            absolute; max_iter applies to both): benchmarks/results/los_corridor_mpc.md
+            compares them.
 
     Bounds (rpod.models.config, checked by `validate()`): the horizon at most 2000 steps (the
     QP grows by 9 variables and a corridor row per face each step; measured ~1 ms per step per
@@ -151,6 +165,7 @@ class LosMpcSettings:
     margin_m: float = bounded(0.1, 0.0, 1e3)
     recovery_steps: int = count(10, 0, 2000)
     corridor_penalty: float = bounded(1e5, 0.0, 1e9)
+    qp_solver: str = "osqp"
 
     def validate(self) -> None:
         """Raises ConfigError naming the first bad field: its declared bounds (check_bounds),
@@ -165,6 +180,8 @@ class LosMpcSettings:
                 raise ConfigError(name, f"expected {size} finite non-negative numbers")
         if not np.all(np.asarray(self.R_u_diag) + np.asarray(self.R_du_diag) > 0):
             raise ConfigError("R_u_diag", "R_u + R_du must be positive definite")
+        if self.qp_solver not in QP_SOLVERS:
+            raise ConfigError("qp_solver", f"must be one of {QP_SOLVERS}, got {self.qp_solver!r}")
 
 
 @dataclasses.dataclass
@@ -335,6 +352,10 @@ class LosCorridorMpc:
             [x_rows, np.tile(self._b_c, N + 1), np.full(nu * N, a_max), s_rows + np.inf]
             + [np.full(len(ko_lower), np.inf)]
         )
+        self._n_eq = nx * (N + 1)  # rows x_0 = x_k and the dynamics: the equalities
+        if settings.qp_solver == "piqp":
+            self._setup_piqp()
+            return
         self._solver = osqp.OSQP()
         self._solver.setup(
             P=self._P,
@@ -349,6 +370,40 @@ class LosCorridorMpc:
             polishing=settings.polishing,
             verbose=False,
         )
+
+    def _setup_piqp(self) -> None:
+        """PIQP on the same QP: equalities A_eq z = b (rows before `_n_eq`), the rest as
+        h_l <= G z <= h_u; A_eq's and G's values gathered from A's CSC slots at every step."""
+        tags = self._A.copy()
+        tags.data = np.arange(1.0, tags.nnz + 1.0)  # slot numbers survive the row slicing
+        self._A_eq, self._G = tags[: self._n_eq].tocsc(), tags[self._n_eq :].tocsc()
+        self._eq_source = self._A_eq.data.astype(int) - 1
+        self._g_source = self._G.data.astype(int) - 1
+        self._A_values = self._A.data.copy()
+        self._A_eq.data, self._G.data = (
+            self._A_values[self._eq_source],
+            self._A_values[self._g_source],
+        )
+        self._solver = piqp.SparseSolver()
+        self._solver.settings.verbose = False
+        self._solver.settings.max_iter = int(self.settings.max_iter)
+        n = self._n_eq
+        self._solver.setup(
+            self._P, np.zeros(self._nz), self._A_eq, self._l[:n], self._G, self._l[n:], self._u[n:]
+        )
+
+    def _solve_piqp(self, x_k, q, l, u, A_d, B_d) -> tuple[MpcStatus, np.ndarray, int]:
+        """(status, z, iterations) of PIQP on this step's data."""
+        self._A_values[self._dyn_csc_slots] = self._dynamics_values(A_d, B_d)
+        if self.soft:
+            self._A_values[self._ko_csc_slots] = self._keep_out_values(x_k)
+        self._A_eq.data[:] = self._A_values[self._eq_source]
+        self._G.data[:] = self._A_values[self._g_source]
+        n = self._n_eq
+        self._solver.update(c=q, A=self._A_eq, b=l[:n], G=self._G, h_l=l[n:], h_u=u[n:])
+        status = _PIQP_STATUS.get(self._solver.solve(), MpcStatus.OTHER)
+        result = self._solver.result
+        return status, np.array(result.x, dtype=float), int(result.info.iter)
 
     def qp(self, x_k, x_ref, u_prev, A_d, B_d, u_nom=None):
         """(P, q, A, l, u) of the QP at these data (P upper triangular): for a reference solve."""
@@ -462,6 +517,10 @@ class LosCorridorMpc:
         bounds = self._corridor_bounds(x_k)
         u[self._corridor_rows] = bounds.ravel()
         A_d, B_d = self._per_step(A_d, B_d)
+        if self.settings.qp_solver == "piqp":
+            q = self._linear_cost(x_ref, u_prev, u_nom)
+            status, z, iterations = self._solve_piqp(x_k, q, l, u, A_d, B_d)
+            return self._result(start, status, z, None, iterations, A_d, B_d, bounds)
         last = self._last_dynamics
         if self.soft:  # the keep-out's direction changes at every step: one update for both
             slots = np.concatenate([self._dyn_csc_slots, self._ko_csc_slots])
@@ -477,7 +536,13 @@ class LosCorridorMpc:
             self._solver.warm_start(x=self._shifted_primal(), y=self._shifted_dual())
         result = self._solver.solve(raise_error=False)  # a failure is a status, not a raise
         status = _OSQP_STATUS.get(result.info.status, MpcStatus.OTHER)
-        iterations, z = int(result.info.iter), result.x
+        return self._result(
+            start, status, result.x, result.y, int(result.info.iter), A_d, B_d, bounds
+        )
+
+    def _result(self, start, status, z, y, iterations, A_d, B_d, bounds) -> MpcResult:
+        """The MpcResult of a solver's answer z (duals y for the next shift; None: none)."""
+        l = self._l
         checked = False
         if status is MpcStatus.SOLVED:
             x = z[: self._u_offset].reshape(self.N + 1, 6)
@@ -491,7 +556,8 @@ class LosCorridorMpc:
         if status is not MpcStatus.SOLVED and not checked:
             elapsed = time.perf_counter() - start
             return MpcResult(status, None, None, None, iterations, elapsed)
-        self._last_solution = (z.copy(), result.y.copy())
+        if y is not None:
+            self._last_solution = (z.copy(), y.copy())
         excess = float(np.max(z[self._s_offset : self._t_offset], initial=0.0))
         elapsed = time.perf_counter() - start
         return MpcResult(status, u_all[0].copy(), u_all, x, iterations, elapsed, checked, excess)
