@@ -41,14 +41,15 @@ def weak_method(method):
     """
     if getattr(method, "__self__", None) is None or not hasattr(method, "__func__"):
         return method
-    ref = weakref.WeakMethod(method)
-    name = method.__func__.__qualname__
+    # A plain weak reference and the function: cheaper per call than weakref.WeakMethod (a
+    # Python-level __call__), and these run at every output evaluation and integrator stage.
+    ref, function = weakref.ref(method.__self__), method.__func__
 
     def call(*args):
-        bound = ref()
-        if bound is None:
-            raise RuntimeError(f"{name}: its system was freed before its diagram stopped")
-        return bound(*args)
+        owner = ref()
+        if owner is None:
+            raise RuntimeError(f"{function.__qualname__}: its system was freed before its diagram")
+        return function(owner, *args)
 
     return call
 
