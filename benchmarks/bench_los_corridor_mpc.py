@@ -15,14 +15,16 @@ Goal (issue 10): at most 1.5x raw, and a p99 under 3 ms here.
 
 Then the solvers compared on the same replayed QPs (issue 23: p99 at most 1.5 ms, maximum at
 most 5 ms, no step without a usable input): ours with OSQP (as flown), ours with PIQP
-(`qp_solver: piqp`, an interior point from its own start each step), and Clarabel's Python
+(`qp_solver: piqp`, an interior point from its own start each step), ours with DAQP
+(`qp_solver: daqp`, a dual active set on the QP condensed onto the inputs), and Clarabel's Python
 package on the identical QP (an interior point, set up each step: its API has no in-place
 update of the constraint matrix's values; absent: the row says so). Each step's first input is
 compared with Clarabel's.
 
-    python benchmarks/bench_los_corridor_mpc.py
+    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_los_corridor_mpc.py
 
-Writes benchmarks/results/los_corridor_mpc.md.
+(one BLAS thread, as `rpod` and the campaign runners set it: rpod.scenarios.entry says why; the
+results name the setting). Writes benchmarks/results/los_corridor_mpc.md.
 """
 
 import dataclasses
@@ -42,7 +44,7 @@ from rpod.planners.los_corridor_mpc import LosCorridorMpc
 from rpod.scenarios.loader import load_scenario
 
 RESULTS = pathlib.Path(__file__).resolve().parent / "results" / "los_corridor_mpc.md"
-COMMAND = "python benchmarks/bench_los_corridor_mpc.py"
+COMMAND = "OPENBLAS_NUM_THREADS=1 python benchmarks/bench_los_corridor_mpc.py"
 
 
 def record(scenario) -> tuple[list[tuple], object]:
@@ -232,7 +234,8 @@ def main() -> None:
         "# Paper 004's MPC: per-step time against raw OSQP on the identical QPs",
         "",
         (
-            f"Machine: {machine_line()}, osqp {osqp.__version__}; `{COMMAND}`; 1-minute load "
+            f"Machine: {machine_line()}, osqp {osqp.__version__}; `{COMMAND}` (BLAS threads: "
+            f"{os.environ.get('OPENBLAS_NUM_THREADS', 'OpenBLAS default')}); 1-minute load "
             f"average {load[0]:.2f} at the start."
         ),
         "",
@@ -266,7 +269,9 @@ def main() -> None:
         (
             "Each step's QP solved by ours with OSQP (as flown: ADMM, the shifted warm start, "
             "eps 1e-4), ours with PIQP (`mpc: {qp_solver: piqp}`: proximal interior point, its "
-            "default tolerances, no warm start) and Clarabel's Python package on the identical "
+            "default tolerances, no warm start), ours with DAQP (`mpc: {qp_solver: daqp}`: dual "
+            "active set on the QP condensed onto the inputs, the condensing included, warm-"
+            "started by the shifted working set) and Clarabel's Python package on the identical "
             "QP (interior point, set up every step); interleaved step by step, same process. "
             "Gap: |u_0 - Clarabel's u_0|, median / max [m/s^2]. Goal: p99 at most 1.5 ms, "
             "maximum at most 5 ms, no step without a usable input."

@@ -65,9 +65,10 @@ import piqp
 import scipy.sparse as sp
 
 from rpod.models.config import ConfigError, bounded, check_bounds, count, positive
+from rpod.planners import los_corridor_condensed
 
 KEEP_OUT_FACTOR = 10.0  # the keep-out's penalty over the corridor's: the target first
-QP_SOLVERS = ("osqp", "piqp")
+QP_SOLVERS = ("osqp", "piqp", "daqp")
 
 
 class MpcStatus(str, enum.Enum):
@@ -86,6 +87,13 @@ _PIQP_STATUS = {
     piqp.PIQP_MAX_ITER_REACHED: MpcStatus.MAX_ITERATIONS,
     piqp.PIQP_PRIMAL_INFEASIBLE: MpcStatus.PRIMAL_INFEASIBLE,
     piqp.PIQP_DUAL_INFEASIBLE: MpcStatus.DUAL_INFEASIBLE,
+}
+
+_DAQP_STATUS = {
+    **dict.fromkeys(los_corridor_condensed.SOLVED_FLAGS, MpcStatus.SOLVED),
+    los_corridor_condensed.INFEASIBLE_FLAG: MpcStatus.PRIMAL_INFEASIBLE,
+    los_corridor_condensed.UNBOUNDED_FLAG: MpcStatus.DUAL_INFEASIBLE,
+    los_corridor_condensed.ITERATION_LIMIT_FLAG: MpcStatus.MAX_ITERATIONS,
 }
 
 _OSQP_STATUS = {
@@ -137,10 +145,11 @@ class LosMpcSettings:
             corridor per predicted step; 0: no best-effort QP (what a failed hard QP flies is
             then the fallback chain alone, as the paper does).
         qp_solver: "osqp" (ADMM, warm-started by the shift; eps_abs, eps_rel, polishing and
-            shift_warm_start are its settings) or "piqp" (PIQP's proximal interior point on
+            shift_warm_start are its settings), "piqp" (PIQP's proximal interior point on
             the same QP, from its own start every step, at its default tolerances, 1e-8
-            absolute; max_iter applies to both): benchmarks/results/los_corridor_mpc.md
-            compares them.
+            absolute) or "daqp" (DAQP's dual active set on the QP condensed onto the inputs,
+            warm-started by the shifted working set: rpod.planners.los_corridor_condensed);
+            max_iter applies to each: benchmarks/results/los_corridor_mpc.md compares them.
 
     Bounds (rpod.models.config, checked by `validate()`): the horizon at most 2000 steps (the
     QP grows by 9 variables and a corridor row per face each step; measured ~1 ms per step per
@@ -356,6 +365,9 @@ class LosCorridorMpc:
         if settings.qp_solver == "piqp":
             self._setup_piqp()
             return
+        if settings.qp_solver == "daqp":
+            self._condensed = los_corridor_condensed.CondensedQp(self)
+            return
         self._solver = osqp.OSQP()
         self._solver.setup(
             P=self._P,
@@ -443,12 +455,16 @@ class LosCorridorMpc:
             )
         return A_d, B_d
 
-    def _keep_out_values(self, x_k) -> np.ndarray:
-        """The keep-out rows' n = p_0 / |p_0| at every step, in CSC slot order (soft only)."""
+    @staticmethod
+    def _keep_out_direction(x_k) -> np.ndarray:
+        """n = p_0 / |p_0| of the keep-out rows (module docstring)."""
         p = np.asarray(x_k, dtype=float)[:3]
         norm = float(np.linalg.norm(p))
-        n = p / norm if norm > 0 else np.array([0.0, 1.0, 0.0])
-        return np.tile(n, self.N + 1)[self._ko_source]
+        return p / norm if norm > 0 else np.array([0.0, 1.0, 0.0])
+
+    def _keep_out_values(self, x_k) -> np.ndarray:
+        """The keep-out rows' n at every step, in CSC slot order (soft only)."""
+        return np.tile(self._keep_out_direction(x_k), self.N + 1)[self._ko_source]
 
     def _dynamics_values(self, A_d, B_d) -> np.ndarray:
         """The constraint matrix's A_d,j, B_d,j slots (negated), in CSC slot order."""
@@ -521,6 +537,12 @@ class LosCorridorMpc:
             q = self._linear_cost(x_ref, u_prev, u_nom)
             status, z, iterations = self._solve_piqp(x_k, q, l, u, A_d, B_d)
             return self._result(start, status, z, None, iterations, A_d, B_d, bounds)
+        if self.settings.qp_solver == "daqp":
+            q = self._linear_cost(x_ref, u_prev, u_nom)
+            n = self._keep_out_direction(x_k) if self.soft else None
+            flag, z, iterations = self._condensed.solve(l[:6], q, bounds, A_d, B_d, n)
+            status = _DAQP_STATUS.get(flag, MpcStatus.OTHER)
+            return self._result(start, status, z, None, iterations, A_d, B_d, bounds)
         last = self._last_dynamics
         if self.soft:  # the keep-out's direction changes at every step: one update for both
             slots = np.concatenate([self._dyn_csc_slots, self._ko_csc_slots])
@@ -549,8 +571,10 @@ class LosCorridorMpc:
             u_all = z[self._u_offset : self._s_offset].reshape(self.N, 3)
             if self.soft:  # OSQP's box is met to its tolerance; the best effort's exactly
                 u_all = np.clip(u_all, -self.settings.a_max_m_s2, self.settings.a_max_m_s2)
-        elif status in (MpcStatus.MAX_ITERATIONS, MpcStatus.SOLVED_INACCURATE) and np.all(
-            np.isfinite(z)
+        elif (
+            status in (MpcStatus.MAX_ITERATIONS, MpcStatus.SOLVED_INACCURATE)
+            and z is not None
+            and np.all(np.isfinite(z))
         ):
             u_all, x, checked = self._rollout_check(l[:6], z, A_d, B_d, bounds)
         if status is not MpcStatus.SOLVED and not checked:

@@ -42,8 +42,17 @@ def _an_interrupt(error: BaseException) -> bool:
     return False
 
 
+# BLAS thread pools off unless the user set them (as the campaign's runners do, harness.py):
+# rpod's matrices are small, so a pool only adds synchronisation, and on a loaded machine it
+# stalls (measured on 2 busy cores: a 120 x 246 x 120 product, paper 004's condensed MPC, took
+# 0.19 ms on one OpenBLAS thread and 36 ms on two). Set before numpy is first imported.
+BLAS_THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
 def main(argv=None) -> int:
     """Entry point of the `rpod` console script (pyproject.toml, [project.scripts])."""
+    for name in BLAS_THREAD_VARIABLES:
+        os.environ.setdefault(name, "1")
     loading = signal.getsignal(signal.SIGINT) is signal.default_int_handler
     if loading:
         signal.signal(signal.SIGINT, _interrupted_while_loading)

@@ -49,14 +49,17 @@ import threading
 import time
 import traceback
 
+from rpod.scenarios.entry import BLAS_THREAD_VARIABLES
+
 FAULTS_ENV = "RPOD_CAMPAIGN_FAULTS"
 RUNNER_STARTUP_TIMEOUT_S = 300.0  # importing pydrake on a cold, slow file system
 STDERR_KEPT_BYTES = 16384
 DETAIL_CHARS = 4000
 MAX_WAIT_S = 3600.0  # longest single select(): a huge timeout_s is waited for in slices
 # A runner that has grown past this is retired after its run (and a fresh one started for the
-# next): each simulate() leaves ~3 MB behind (Drake systems with Python callbacks are not all
-# freed): 1-3 MB a run, several GB over a 3,900-run campaign on 2 runners without it.
+# next): a guard only since simulate() frees its diagram (rpod.systems.lifetime; before, each
+# run left 1-3 MB behind, several GB over a 3,900-run campaign on 2 runners;
+# benchmarks/results/memory.md).
 RUNNER_MAX_RSS_BYTES = 1 << 30
 
 
@@ -102,7 +105,7 @@ class _Runner:
 
     def __init__(self):
         env = dict(os.environ)
-        for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        for name in BLAS_THREAD_VARIABLES:
             env.setdefault(name, "1")  # one process per core: no hidden thread pools
         self.process = subprocess.Popen(
             [sys.executable, "-m", "rpod.scenarios.harness"],

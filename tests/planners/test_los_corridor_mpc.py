@@ -216,13 +216,15 @@ def test_the_best_effort_qp_keeps_its_plan_beyond_the_keep_out_plane():
         assert bool(np.min(along) >= 3.0 - 1e-6) == holds, np.min(along)
 
 
+@pytest.mark.parametrize("solver", ["piqp", "daqp"])
 @pytest.mark.parametrize("soft", [False, True])
-def test_piqp_solves_the_same_qp_as_clarabel_through_every_update(soft):
-    """qp_solver: piqp (an interior point, no warm start) on the same QP, its data rewritten
-    each step (another start, last input, model and, soft, keep-out direction): Clarabel's
-    answer to 1e-6, every constraint of eq. 11 on the hard QP."""
+def test_other_qp_solvers_give_clarabels_answer_through_every_update(solver, soft):
+    """qp_solver: piqp (an interior point, no warm start) and daqp (an active set on the QP
+    condensed onto the inputs, warm-started by the shifted working set) on the same QP, its
+    data rewritten each step (another start, last input, model and, soft, keep-out
+    direction): Clarabel's answer to 1e-6, every constraint of eq. 11 on the hard QP."""
     horizon = 20
-    settings = LosMpcSettings(horizon=horizon, qp_solver="piqp", **PAPER_11D)
+    settings = LosMpcSettings(horizon=horizon, qp_solver=solver, **PAPER_11D)
     mpc = LosCorridorMpc(settings, CORRIDOR.A_c, CORRIDOR.b_c, soft=soft, keep_out_m=3.0)
     x_ref = np.array([0.0, 10.0, 0.0, 0.0, 0.0, 0.0])
     cases = [
@@ -230,9 +232,9 @@ def test_piqp_solves_the_same_qp_as_clarabel_through_every_update(soft):
         (np.array([-4.0, 30.0, 5.0, 0.0, -0.1, -0.05]), np.array([0.01, -0.02, 0.0]), *_model(1.2)),
         (np.array([10.0, 20.0, 0.0, 0.0, 0.0, 0.0]), np.zeros(3), *_model()),
     ]
-    for x_k, u_prev, A_d, B_d in cases:
+    for x_k, u_prev, A_d, B_d in cases + cases[:1]:  # the last: a warm start on old data
         result = mpc.solve(x_k, x_ref, u_prev, A_d, B_d)
-        assert result.status is MpcStatus.SOLVED and result.iterations > 0
+        assert result.status is MpcStatus.SOLVED
         if not soft:
             _check_solution(result, x_k, A_d, B_d, settings.a_max_m_s2)
         z_ref, _ = _clarabel(*mpc.qp(x_k, x_ref, u_prev, A_d, B_d))
@@ -240,8 +242,9 @@ def test_piqp_solves_the_same_qp_as_clarabel_through_every_update(soft):
         np.testing.assert_allclose(result.u, u_ref, atol=1e-6)
 
 
-def test_piqp_says_infeasible_and_solves_the_next_step():
-    settings = LosMpcSettings(horizon=20, qp_solver="piqp", **PAPER_11D)
+@pytest.mark.parametrize("solver", ["piqp", "daqp"])
+def test_other_qp_solvers_say_infeasible_and_solve_the_next_step(solver):
+    settings = LosMpcSettings(horizon=20, qp_solver=solver, **PAPER_11D)
     mpc = LosCorridorMpc(settings, CORRIDOR.A_c, CORRIDOR.b_c)
     A_d, B_d = _model()
     outside = np.array([0.0, -5.0, 0.0, 0.0, 0.0, 0.0])
@@ -250,4 +253,4 @@ def test_piqp_says_infeasible_and_solves_the_next_step():
     inside = np.array([0.0, 15.0, 0.0, 0.0, 0.0, 0.0])
     assert mpc.solve(inside, inside, np.zeros(3), A_d, B_d).status is MpcStatus.SOLVED
     with pytest.raises(ValueError, match="qp_solver"):
-        LosCorridorMpc(LosMpcSettings(qp_solver="daqp"), CORRIDOR.A_c, CORRIDOR.b_c)
+        LosCorridorMpc(LosMpcSettings(qp_solver="qpoases"), CORRIDOR.A_c, CORRIDOR.b_c)
