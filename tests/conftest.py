@@ -8,6 +8,13 @@ import shutil
 
 import pytest
 
+from rpod.scenarios.entry import BLAS_THREAD_VARIABLES
+
+# One BLAS thread per process, as `rpod` sets it (rpod.scenarios.entry says why): the suite's
+# two workers share two cores. Set here, before any test module imports numpy.
+for _name in BLAS_THREAD_VARIABLES:
+    os.environ.setdefault(_name, "1")
+
 
 @pytest.fixture(scope="session")
 def made_once(tmp_path_factory):
