@@ -127,11 +127,16 @@ class CondensedQp:
 
     def solve(self, x_k, q, bounds, A_d, B_d, keep_out_n=None):
         """(flag, z, iterations): DAQP's exit flag, the sparse QP's variable vector (states
-        rebuilt from the inputs) or None, and its iterations."""
+        rebuilt from the inputs) or None, and its iterations. A warm start that fails (its
+        working set infeasible, say) is followed by a cold one."""
         H, f, A, upper, lower, x_free, gamma = self.problem(x_k, q, bounds, A_d, B_d, keep_out_n)
         sense = self._warm_sense(len(upper))
         w, _, flag, info = daqp.solve(H, f, A, upper, lower, sense, iter_limit=self._max_iter)
         iterations = int(info.get("iterations", 0))
+        if flag not in SOLVED_FLAGS and np.any(sense):  # the guess may be what failed: cold
+            cold = np.zeros_like(sense)
+            w, _, flag, info = daqp.solve(H, f, A, upper, lower, cold, iter_limit=self._max_iter)
+            iterations += int(info.get("iterations", 0))
         if flag not in SOLVED_FLAGS:
             self._active = None
             return flag, None, iterations
