@@ -9,16 +9,26 @@ import time
 
 
 def machine_line() -> str:
-    """Architecture, CPU model, cores, Python and Drake versions."""
+    """Architecture, CPU model (with its family and model numbers and whether it has AVX-512:
+    a virtual machine may name every generation alike, and BLAS and solver kernels differ by
+    them), cores, Python and Drake versions."""
     cpu = platform.processor() or platform.machine()
+    info = {}
     try:
         with open("/proc/cpuinfo") as f:
             for line in f:
-                if line.startswith("model name"):
-                    cpu = line.split(":", 1)[1].strip()
-                    break
+                key, _, value = line.partition(":")
+                info.setdefault(key.strip(), value.strip())
+                if not line.strip():
+                    break  # the first processor is enough
     except OSError:
         pass
+    if "model name" in info:
+        avx512 = "AVX-512" if "avx512f" in info.get("flags", "").split() else "no AVX-512"
+        cpu = (
+            f"{info['model name']} (family {info.get('cpu family', '?')}, model "
+            f"{info.get('model', '?')}, {avx512})"
+        )
     return (
         f"{platform.machine()}, {cpu}, {os.cpu_count()} cores, Python "
         f"{platform.python_version()}, drake {importlib.metadata.version('drake')}"
