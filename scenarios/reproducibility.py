@@ -20,7 +20,15 @@ import dataclasses
 from rpod.scenarios.store import mission_success
 
 # Summary keys (or parts of them) that measure the machine, not the flight.
-MACHINE_KEYS = ("wall_time", "build_time", "solve_time", "real_time_factor", "control_step_ms")
+MACHINE_KEYS = (
+    "wall_time",
+    "build_time",
+    "solve_time",
+    "solve_ms",
+    "check_time",
+    "real_time_factor",
+    "control_step_ms",
+)
 # Vectors longer than this (trajectories, code lists) are not compared.
 MAX_VECTOR = 6
 

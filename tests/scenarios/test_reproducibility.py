@@ -18,6 +18,7 @@ def _row(run_id: str, index: int, status: str = "ok", flown: str = "2026-12-06T0
         "real_time_factor": 28.6,
         "control_step_ms_p99": 5.07,
         "initial_plan_solve_time_s": 0.098,
+        "los_mpc_solve_ms_max": 3.2,
     }
     return {
         "run_id": run_id,
@@ -33,7 +34,13 @@ def test_a_record_keeps_the_flight_and_drops_the_machine():
     assert record["status"] == "ok" and record["mission_success"] == "true"
     assert record["final_p_LC_L[0]"] == repr(1.0 / 3.0)  # every digit, not printed ones
     assert record["mission.outcome"] == "captured at 58.7 s" and record["contact.first_s"] == ""
-    for dropped in ("wall_time_s", "real_time_factor", "control_step_ms_p99", "plans"):
+    for dropped in (
+        "wall_time_s",
+        "real_time_factor",
+        "control_step_ms_p99",
+        "plans",
+        "los_mpc_solve_ms_max",
+    ):
         assert dropped not in record
     assert not any("solve_time" in key for key in record)
     failed = run_record(_row("b", 1, status="failed"))
