@@ -74,10 +74,11 @@ def _last_commit_of(path: pathlib.Path) -> str:
 
 def _reproduction_lines(rows: list[dict], committed: list[dict] | None) -> list[str]:
     """Whether the runs flown again here give the numbers of the committed store's."""
-    if committed is None:
-        return []
+    commit = _last_commit_of(STORE_ARCHIVE)
+    if committed is None or commit == "uncommitted":
+        return []  # no committed flight to compare with
     comparison = compare_runs(rows, committed)
-    where = f"the committed store (commit {_last_commit_of(STORE_ARCHIVE)})"
+    where = f"the committed store (commit {commit})"
     if comparison.compared == 0:
         return [
             (

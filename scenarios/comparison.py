@@ -415,9 +415,23 @@ def _binned_success(runs: list[dict], values: np.ndarray, edges: np.ndarray):
     return centres, shares
 
 
+def _pending(cell: Cell) -> int:
+    return sum(1 for r in cell.runs.values() if r["status"] == "pending")
+
+
+def success_curve_label(cell: Cell) -> str:
+    """A success curve's legend entry: a cell with runs still pending is not drawn (a few
+    flown runs would read as the method's curve), and its entry says so."""
+    pending = _pending(cell)
+    if pending:
+        return f"{_cell_label(cell)}: not drawn, {pending} of {len(cell.runs)} runs pending"
+    return _cell_label(cell)
+
+
 def comparison_figures(rows: list[dict], out_dir: pathlib.Path) -> list[pathlib.Path]:
     """success_vs_tumble.png, success_vs_range.png and delta_v_vs_range.png: one curve per
-    method and column (truth-fed solid, estimated dashed); [] when no methods are compared."""
+    method and column (truth-fed solid, estimated dashed; a column with runs still pending is
+    named in the legend, not drawn); [] when no methods are compared."""
     from matplotlib.figure import Figure
 
     methods = compared_methods(rows)
@@ -441,13 +455,15 @@ def comparison_figures(rows: list[dict], out_dir: pathlib.Path) -> list[pathlib.
         for cell in all_cells:
             runs = list(cell.runs.values())
             x, y = _binned_success(runs, np.array([axis(r) for r in runs]), edges)
+            if _pending(cell):
+                x, y = [], []
             axes.plot(
                 x,
                 y,
                 style[cell.column],
                 marker="o",
                 color=colours[cell.method],
-                label=_cell_label(cell),
+                label=success_curve_label(cell),
             )
         axes.set_xlabel(label)
         axes.set_ylabel("captured [%]")
@@ -470,7 +486,8 @@ def comparison_figures(rows: list[dict], out_dir: pathlib.Path) -> list[pathlib.
             s=10,
             color=colours[cell.method],
             marker="o" if cell.column == TRUTH_FED else "x",
-            label=f"{_cell_label(cell)}: {len(runs)} captured",
+            label=f"{_cell_label(cell)}: {len(runs)} captured"
+            + (f" ({_pending(cell)} runs pending)" if _pending(cell) else ""),
         )
     axes.set_xlabel("start range [m]")
     axes.set_ylabel("delta-v [m/s]")

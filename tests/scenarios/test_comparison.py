@@ -142,3 +142,18 @@ def test_the_report_leads_with_the_comparison_and_draws_its_figures(tmp_path):
     for path in paths:
         pixels = imread(path)
         assert pixels.shape[0] > 300 and pixels[..., :3].std() > 0.05  # drawn, not blank
+
+
+def test_a_column_with_runs_pending_is_named_not_drawn(tmp_path):
+    """Six flown runs of 200 would draw as the method's curve; a partly flown column is left
+    out of the success curves and its legend entry says how many runs are pending."""
+    rows = _campaign()
+    rows = [
+        dict(r, status="pending", metrics=None) if r["grp"] == "b" and r["sample_index"] > 0 else r
+        for r in rows
+    ]
+    cells = comparison.cells(rows, comparison.compared_methods(rows))
+    labels = {(c.method, c.column): comparison.success_curve_label(c) for c in cells}
+    assert labels[("b", comparison.TRUTH_FED)].endswith("not drawn, 3 of 4 runs pending")
+    assert "pending" not in labels[("a", comparison.TRUTH_FED)]
+    assert len(comparison.comparison_figures(rows, tmp_path)) == 3
