@@ -18,9 +18,9 @@ not flown again) and writes OUT's store back into it when it ends. `--fresh` doe
 every run is flown anew, and the table says how many of the runs flown again give the numbers
 the committed store holds, run by run (rpod.scenarios.reproducibility: the second run the
 issue asks for). `--report-only` flies nothing (with `--reuse
-OLD`, OLD's finished runs are first recorded into OUT). A section of the existing file headed
-ANALYSIS_HEADING (the paragraph on what each method is best and worst at, written from the
-table) is kept as it is below the regenerated part.
+OLD`, OLD's finished runs are first recorded into OUT). The existing file's sections written by
+hand (every `## ` section: the flights' provenance, what each method is best and worst at,
+written from the table) are kept as they are below the regenerated part.
 """
 
 from __future__ import annotations
@@ -47,7 +47,7 @@ TABLE = RESULTS / "shootout.md"
 FIGURES = RESULTS / "shootout"
 STORE_ARCHIVE = FIGURES / "results.sqlite.xz"  # the committed store (module docstring)
 COMMAND = "python benchmarks/shootout.py"
-ANALYSIS_HEADING = "## What each method is best and worst at"
+ANALYSIS_START = "\n## "  # the first section written by hand (the table has none)
 SECTION_START, SECTION_END = "Methods compared on the same", "Metrics over the ok runs"
 
 
@@ -197,9 +197,9 @@ def main() -> int:
             shutil.copy(plot, FIGURES / plot.name)
             figures.append(plot.name)
     analysis = ""
-    if TABLE.exists() and ANALYSIS_HEADING in TABLE.read_text():
+    if TABLE.exists() and ANALYSIS_START in TABLE.read_text():
         old = TABLE.read_text()
-        analysis = old[old.index(ANALYSIS_HEADING) :].rstrip() + "\n"
+        analysis = old[old.index(ANALYSIS_START) + 1 :].rstrip() + "\n"
 
     lines = [
         "# The shoot-out: rpod's 3-D methods on one capture task (issue 22)",
