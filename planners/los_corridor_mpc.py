@@ -1,4 +1,5 @@
-"""Paper 004's MPC safety filter (eq. 11) as one persistent OSQP problem.
+"""Paper 004's MPC safety filter (eq. 11) as one persistent OSQP problem (or PIQP, or DAQP on it
+condensed: `LosMpcSettings.qp_solver`).
 
 Owns: `LosMpcSettings` (horizon, weights, input bound, solver tolerances), `LosCorridorMpc`
 (the QP, built once) and `MpcResult`. Does not own: the prediction model A_d, B_d (given per
@@ -72,7 +73,7 @@ QP_SOLVERS = ("osqp", "piqp", "daqp")
 
 
 class MpcStatus(str, enum.Enum):
-    """What came of one solve, in OSQP's terms."""
+    """What came of one solve, in OSQP's terms (PIQP's and DAQP's mapped onto them)."""
 
     SOLVED = "solved"
     SOLVED_INACCURATE = "solved_inaccurate"
@@ -198,10 +199,10 @@ class MpcResult:
     """One solve.
 
     Attributes:
-        status: OSQP's verdict as an MpcStatus.
+        status: the QP solver's verdict as an MpcStatus.
         u0: the first input (3) to apply, or None when the step has no usable input.
         u: the inputs (N, 3), x: the predicted states (N + 1, 6) (None likewise).
-        iterations: OSQP's ADMM iterations.
+        iterations: the QP solver's iterations (ADMM, interior-point or active-set).
         solve_time_s: wall time of the update, the solve and the check [s].
         checked: an unfinished iterate passed the rollout check (LosMpcSettings); its x is
             the rollout, its u the clipped inputs. On the best-effort QP, which promises no
@@ -221,7 +222,7 @@ class MpcResult:
 
     @property
     def solved(self) -> bool:
-        """There is an input to apply: OSQP solved, or its iterate passed the check."""
+        """There is an input to apply: the QP was solved, or its iterate passed the check."""
         return self.status is MpcStatus.SOLVED or self.checked
 
 

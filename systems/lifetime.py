@@ -5,7 +5,7 @@ Owns: `LeafSystem` (pydrake's, its callbacks holding their system weakly), `weak
 diagrams (rpod.diagrams).
 
 Why. On drake 1.51 (the newest on PyPI), a diagram with a Python LeafSystem in it is never freed:
-each `simulate()` of `hold_point` left 2.7 MB behind (tests/systems/test_lifetime.py measures it).
+each `simulate()` of `hold_point` left 2.7 MB behind (benchmarks/results/memory.md).
 Two things keep it alive, each a cycle Python's collector cannot break:
 1. A bound method given as a callback (an output port's calc, an event's handler, a cache
    entry's producer) is kept by the C++ system and keeps its Python system alive (drake#22515,
@@ -16,9 +16,9 @@ Two things keep it alive, each a cycle Python's collector cannot break:
    `CacheEntry` as an attribute (the entry keeps the system alive from C++, `keep_alive`).
 (1) is avoided by giving C++ a function that holds the method weakly (`weak_method`; this
 module's `LeafSystem` does it for every bound method of the system it is given); a lambda or
-closure that captures `self` would bring it back, so rpod's systems pass bound methods. (2) is
-undone by `release_diagram`, which empties those sets (and drops the cache-entry attributes)
-once the run is over, after which
+closure that captures `self` would bring it back, so rpod's systems pass bound methods (or
+lambdas that capture what they read, a state index). (2) is undone by `release_diagram`, which
+empties those sets (and drops the cache-entry attributes) once the run is over, after which
 reference counting frees the diagram, its systems and their C++ state when the last Python
 reference goes. Neither changes what a system computes.
 """
@@ -61,52 +61,41 @@ def _weakened(args, kwargs):
     )
 
 
+# pydrake's LeafSystem methods that hand a callback to C++.
+CALLBACK_DECLARATIONS = (
+    "DeclareVectorOutputPort",
+    "DeclareAbstractOutputPort",
+    "DeclarePeriodicDiscreteUpdateEvent",
+    "DeclarePeriodicUnrestrictedUpdateEvent",
+    "DeclarePeriodicPublishEvent",
+    "DeclareInitializationPublishEvent",
+    "DeclareInitializationDiscreteUpdateEvent",
+    "DeclareInitializationUnrestrictedUpdateEvent",
+    "DeclarePerStepPublishEvent",
+    "DeclareForcedPublishEvent",
+)
+
+
 class LeafSystem(_DrakeLeafSystem):
     """pydrake's LeafSystem whose declared callbacks hold the system weakly (module docstring).
 
-    Every bound method passed to one of the Declare* calls below goes to C++ through
+    Every bound method passed to one of CALLBACK_DECLARATIONS goes to C++ through
     `weak_method`; their signatures and behaviour are pydrake's.
     """
 
-    def DeclareVectorOutputPort(self, *args, **kwargs):
-        args, kwargs = _weakened(args, kwargs)
-        return super().DeclareVectorOutputPort(*args, **kwargs)
 
-    def DeclareAbstractOutputPort(self, *args, **kwargs):
+def _weakening(name: str):
+    def declare(self, *args, **kwargs):
         args, kwargs = _weakened(args, kwargs)
-        return super().DeclareAbstractOutputPort(*args, **kwargs)
+        return getattr(_DrakeLeafSystem, name)(self, *args, **kwargs)
 
-    def DeclarePeriodicDiscreteUpdateEvent(self, *args, **kwargs):
-        args, kwargs = _weakened(args, kwargs)
-        return super().DeclarePeriodicDiscreteUpdateEvent(*args, **kwargs)
+    declare.__name__ = declare.__qualname__ = name
+    declare.__doc__ = f"pydrake's {name}, a bound method passed on through `weak_method`."
+    return declare
 
-    def DeclarePeriodicUnrestrictedUpdateEvent(self, *args, **kwargs):
-        args, kwargs = _weakened(args, kwargs)
-        return super().DeclarePeriodicUnrestrictedUpdateEvent(*args, **kwargs)
 
-    def DeclarePeriodicPublishEvent(self, *args, **kwargs):
-        args, kwargs = _weakened(args, kwargs)
-        return super().DeclarePeriodicPublishEvent(*args, **kwargs)
-
-    def DeclareInitializationPublishEvent(self, *args, **kwargs):
-        args, kwargs = _weakened(args, kwargs)
-        return super().DeclareInitializationPublishEvent(*args, **kwargs)
-
-    def DeclareInitializationDiscreteUpdateEvent(self, *args, **kwargs):
-        args, kwargs = _weakened(args, kwargs)
-        return super().DeclareInitializationDiscreteUpdateEvent(*args, **kwargs)
-
-    def DeclareInitializationUnrestrictedUpdateEvent(self, *args, **kwargs):
-        args, kwargs = _weakened(args, kwargs)
-        return super().DeclareInitializationUnrestrictedUpdateEvent(*args, **kwargs)
-
-    def DeclarePerStepPublishEvent(self, *args, **kwargs):
-        args, kwargs = _weakened(args, kwargs)
-        return super().DeclarePerStepPublishEvent(*args, **kwargs)
-
-    def DeclareForcedPublishEvent(self, *args, **kwargs):
-        args, kwargs = _weakened(args, kwargs)
-        return super().DeclareForcedPublishEvent(*args, **kwargs)
+for _name in CALLBACK_DECLARATIONS:
+    setattr(LeafSystem, _name, _weakening(_name))
 
 
 def release_diagram(*roots) -> int:
@@ -117,8 +106,7 @@ def release_diagram(*roots) -> int:
     stays alive and usable, but nothing is kept alive on its account any more. Returns how
     many objects' peer sets were emptied.
     """
-    stack, seen, kept, released = [], set(), [], 0
-    stack.extend(roots)
+    stack, seen, kept, released = list(roots), set(), [], 0
     while stack:
         item = stack.pop()
         if id(item) in seen:
