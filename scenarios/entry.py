@@ -32,7 +32,9 @@ def _interrupted_while_loading(signum, frame) -> None:
 
 def _an_interrupt(error: BaseException) -> bool:
     """True when error is a KeyboardInterrupt, or was raised because of one (pybind11 turns a
-    KeyboardInterrupt during a compiled module's initialisation into an ImportError)."""
+    KeyboardInterrupt during a compiled module's initialisation into an ImportError, and
+    Python 3.11 one inside a class's `__set_name__`, matplotlib's at import, into a
+    RuntimeError)."""
     seen = set()
     while error is not None and id(error) not in seen:
         if isinstance(error, KeyboardInterrupt):
@@ -63,7 +65,7 @@ def main(argv=None) -> int:
             signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         status = cli_main(argv)
-    except (KeyboardInterrupt, ImportError) as error:
+    except (KeyboardInterrupt, Exception) as error:  # an interrupt, or one wrapped by an import
         if not _an_interrupt(error):
             raise
         signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C must not cut this line

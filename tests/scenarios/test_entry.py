@@ -109,3 +109,30 @@ def test_the_entry_point_runs_the_command_line(tmp_path):
     )
     assert process.returncode == 0, process.stderr
     assert "Scenarios (rpod run NAME):" in process.stdout
+
+
+@pytest.mark.parametrize("wrapper", [RuntimeError, ImportError])
+def test_an_interrupt_wrapped_by_an_import_is_still_one_line(monkeypatch, capsys, wrapper):
+    """A Ctrl-C inside a class's `__set_name__` at import (matplotlib's) reaches the entry point
+    as a RuntimeError caused by the KeyboardInterrupt on Python 3.11, inside a compiled module's
+    initialisation as an ImportError: both are the one line and 130; anything else is raised."""
+    from rpod.scenarios import cli, entry
+
+    def interrupted_import(argv):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as interrupt:
+            raise wrapper("Error calling __set_name__") from interrupt
+
+    def end_now(status):  # as the real one ends the process, without os._exit
+        raise SystemExit(status)
+
+    monkeypatch.setattr(cli, "main", interrupted_import)
+    monkeypatch.setattr(entry, "_end_now", end_now)
+    with pytest.raises(SystemExit) as ended:
+        entry.main(["run", "hold_point"])
+    assert ended.value.code == 130 and capsys.readouterr().err == "rpod: interrupted\n"
+
+    monkeypatch.setattr(cli, "main", lambda argv: (_ for _ in ()).throw(wrapper("real")))
+    with pytest.raises(wrapper, match="real"):
+        entry.main(["run", "hold_point"])
