@@ -14,10 +14,10 @@ and its three figures into benchmarks/results/shootout/.
 The store itself is committed, xz-compressed (benchmarks/results/shootout/results.sqlite.xz,
 ~1.5 MB): the whole campaign takes longer than one working session on this 2-core machine, so
 each invocation starts from it (its finished runs are recorded into OUT, `rpod sweep --reuse`,
-not flown again) and writes OUT's store back into it when it ends. `--fresh` does not reuse it:
-every run is flown anew, and the table says how many of the runs flown again give the numbers
-the committed store holds, run by run (rpod.scenarios.reproducibility: the second run the
-issue asks for). `--report-only` flies nothing (with `--reuse
+not flown again) and writes OUT's store back into it when it ends. `--fresh` neither reuses
+nor rewrites it: every run is flown anew into OUT (resumable like any sweep), and the table
+says how many of the runs flown again give the numbers the committed store holds, run by run
+(rpod.scenarios.reproducibility: the second run the issue asks for). `--report-only` flies nothing (with `--reuse
 OLD`, OLD's finished runs are first recorded into OUT). The existing file's sections written by
 hand (every `## ` section: the flights' provenance, what each method is best and worst at,
 written from the table) are kept as they are below the regenerated part.
@@ -190,7 +190,8 @@ def main() -> int:
         with ResultStore.open_existing(_unpack_committed(out)) as store:
             committed = store.rows()
     reproduction = _reproduction_lines(rows, committed)
-    _pack_store(out)
+    if not args.fresh:  # a second flight is compared with the committed store, not written over it
+        _pack_store(out)
     figures = []
     for plot in plots:
         if plot.name in ("success_vs_tumble.png", "success_vs_range.png", "delta_v_vs_range.png"):
