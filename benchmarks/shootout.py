@@ -17,9 +17,9 @@ each invocation starts from it (its finished runs are recorded into OUT, `rpod s
 not flown again) and writes OUT's store back into it when it ends. `--fresh` neither reuses
 nor rewrites it: every run is flown anew into OUT (resumable like any sweep), and the table
 says how many of the runs flown again give the numbers the committed store holds, run by run
-(rpod.scenarios.reproducibility: the second run the issue asks for). `--report-only` flies nothing (with `--reuse
-OLD`, OLD's finished runs are first recorded into OUT). The existing file's sections written by
-hand (every `## ` section: the flights' provenance, what each method is best and worst at,
+(rpod.scenarios.reproducibility: the second run the issue asks for). `--report-only` flies
+nothing (with `--reuse OLD`, OLD's finished runs are first recorded into OUT). The existing
+file's sections written by hand (every `## ` section: the flights' provenance, what each method is best and worst at,
 written from the table) are kept as they are below the regenerated part.
 """
 
@@ -156,8 +156,9 @@ def main() -> int:
     start = time.perf_counter()
     out = pathlib.Path(args.out)
     reuse = pathlib.Path(args.reuse) if args.reuse else None
-    if reuse is None and not args.fresh and STORE_ARCHIVE.exists():
-        reuse = _unpack_committed(out)
+    committed_folder = _unpack_committed(out) if STORE_ARCHIVE.exists() else None
+    if reuse is None and not args.fresh and committed_folder is not None:
+        reuse = committed_folder
         if args.report_only and not (out / STORE_NAME).exists():
             out.mkdir(parents=True, exist_ok=True)
             shutil.copy(reuse / STORE_NAME, out / STORE_NAME)
@@ -186,8 +187,8 @@ def main() -> int:
 
     FIGURES.mkdir(parents=True, exist_ok=True)
     committed = None
-    if STORE_ARCHIVE.exists():
-        with ResultStore.open_existing(_unpack_committed(out)) as store:
+    if committed_folder is not None:
+        with ResultStore.open_existing(committed_folder) as store:
             committed = store.rows()
     reproduction = _reproduction_lines(rows, committed)
     if not args.fresh:  # a second flight is compared with the committed store, not written over it

@@ -55,6 +55,14 @@ class CondensedQp:
         self._keep_out_m = mpc.keep_out_m
         self._max_iter = int(mpc.settings.max_iter)
         self._u_off, self._s_off, self._nc = u_off, s_off, len(mpc._b_c)
+        # The slacks' columns do not change: - |A_c,i| s_j in corridor row (j, i), t_j in
+        # keep-out row j (soft only).
+        nc, n_s = self._nc, self._n_w - self._n_u
+        self._corridor_slacks = np.zeros((nc * (N + 1), n_s))
+        self._keep_out_slacks = np.zeros((N + 1, n_s))
+        if self.soft:
+            self._corridor_slacks[:, : N + 1] = np.kron(np.eye(N + 1), -self._row_norms[:, None])
+            self._keep_out_slacks[:, N + 1 :] = np.eye(N + 1)
         self._active = None  # the last solve's working set, for the warm start
 
     def _prediction(self, x_k, A_d, B_d) -> tuple[np.ndarray, np.ndarray]:
@@ -82,17 +90,13 @@ class CondensedQp:
         H[n_u:, n_u:] = self._P_st
         f = q[self._u_off :].copy()
         f[:n_u] += flat.T @ (self._P_x * x_free.ravel() + q[: self._u_off])
-        rows = [np.zeros((nc * (N + 1), n_w))]
-        rows[0][:, :n_u] = np.einsum("ik,jkn->jin", self._A_c, gamma[:, :3, :]).reshape(-1, n_u)
+        corridor = np.einsum("ik,jkn->jin", self._A_c, gamma[:, :3, :]).reshape(-1, n_u)
+        rows = [np.hstack([corridor, self._corridor_slacks])]
         upper = [(bounds - x_free[:, :3] @ self._A_c.T).ravel()]
         lower = [np.full(nc * (N + 1), -INFINITY)]
         if self.soft:
-            for j in range(N + 1):  # - |A_c,i| s_j
-                rows[0][nc * j : nc * (j + 1), n_u + j] = -self._row_norms
-            keep = np.zeros((N + 1, n_w))
-            keep[:, :n_u] = np.einsum("k,jkn->jn", keep_out_n, gamma[:, :3, :])
-            keep[:, n_u + N + 1 :] = np.eye(N + 1)
-            rows.append(keep)
+            keep = np.einsum("k,jkn->jn", keep_out_n, gamma[:, :3, :])
+            rows.append(np.hstack([keep, self._keep_out_slacks]))
             upper.append(np.full(N + 1, INFINITY))
             ko_lower = self._keep_out_m - x_free[:, :3] @ keep_out_n
             ko_lower[0] = -INFINITY  # x_0 is data
