@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 
-from rpod.scenarios.store import mission_success
+from rpod.scenarios.store import counterparts, mission_success
 
 # Summary keys (or parts of them) that measure the machine, not the flight.
 MACHINE_KEYS = (
@@ -102,22 +102,29 @@ class RunComparison:
 
 def compare_runs(rows: list[dict], earlier: list[dict]) -> RunComparison:
     """Compares the finished runs of rows with those of earlier (both `ResultStore.rows()`),
-    run id by run id, every reproducible cell of either (one a record lacks counts as a
-    difference)."""
-    here = {row["run_id"]: row for row in rows if row["status"] != "pending"}
-    there = {row["run_id"]: row for row in earlier if row["status"] != "pending"}
-    both = here.keys() & there.keys()
-    again = [key for key in both if here[key]["finished_at"] != there[key]["finished_at"]]
+    each with its counterpart (rpod.scenarios.store.counterparts: the same run id, or the same
+    start to a rounding residue when the two were planned on different CPUs), every
+    reproducible cell of either (one a record lacks counts as a difference)."""
+    here = [row for row in rows if row["status"] != "pending"]
+    there = [row for row in earlier if row["status"] != "pending"]
+    matches = counterparts(here, there)
+    by_id = {row["run_id"]: row for row in here}
+    again = {
+        run_id: match
+        for run_id, match in matches.items()
+        if match["finished_at"] != by_id[run_id]["finished_at"]
+    }
     differing = {}
-    for run_id in again:
-        new, old = run_record(here[run_id]), run_record(there[run_id])
+    for run_id, match in again.items():
+        new, old = run_record(by_id[run_id]), run_record(match)
         cells = sorted(key for key in new.keys() | old.keys() if new.get(key) != old.get(key))
         if cells:
             differing[run_id] = cells
+    matched_there = {id(match) for match in matches.values()}
     return RunComparison(
         compared=len(again),
         differing=differing,
-        only_here=len(here.keys() - there.keys()),
-        only_there=len(there.keys() - here.keys()),
-        same_flight=len(both) - len(again),
+        only_here=len(here) - len(matches),
+        only_there=sum(1 for row in there if id(row) not in matched_there),
+        same_flight=len(matches) - len(again),
     )

@@ -46,6 +46,7 @@ import contextlib
 import datetime
 import hashlib
 import json
+import math
 import os
 import pathlib
 import sqlite3
@@ -331,14 +332,15 @@ class ResultStore:
 
     def reuse(self, other: "ResultStore", label: str) -> int:
         """Records, for every run still pending here, the finished result that `other` holds
-        under the same run id (the id is the run's whole scenario: rpod.scenarios.campaign
-        .run_id), its worker marked `reused from <label>`; how many. The results are those
-        of the code that flew them into `other`."""
-        finished = {row["run_id"]: row for row in other.rows() if row["status"] in ("ok", "failed")}
-        pending = [run_id for run_id in self.pending_ids() if run_id in finished]
+        for the same scenario (`counterparts`: the same run id, or the same start to
+        START_RTOL when the two stores were planned on different CPUs), its worker marked
+        `reused from <label>`; how many. The results are those of the code (and the machine)
+        that flew them into `other`."""
+        pending = [row for row in self.rows() if row["status"] == "pending"]
+        finished = [row for row in other.rows() if row["status"] in ("ok", "failed")]
+        matches = counterparts(pending, finished)
         with self._guard("write"), self._connection:
-            for run_id in pending:
-                row = finished[run_id]
+            for run_id, row in matches.items():
                 self._connection.execute(
                     "UPDATE runs SET status = ?, reason = ?, detail = ?, metrics = ?,"
                     " wall_time_s = ?, worker = ?, finished_at = ? WHERE run_id = ?"
@@ -354,7 +356,7 @@ class ResultStore:
                         run_id,
                     ),
                 )
-        return len(pending)
+        return len(matches)
 
     def retry_failed(self) -> int:
         """Sets every failed run back to pending, keeping its failure in `retries`; how many."""
@@ -423,6 +425,55 @@ class ResultStore:
                             ) from None
                 rows.append(row)
         return rows
+
+
+# Two planned runs are the same scenario when their overrides agree to this relative tolerance:
+# a start sampled on another CPU differs in its last bits (numpy and OpenBLAS pick kernels by
+# the CPU's vector extensions, so a norm or a product may round otherwise), and its run id,
+# the hash of its overrides' text, with them.
+START_RTOL = 1e-9
+START_ATOL = 1e-12  # for values that are zero on one CPU and a rounding residue on another
+
+
+def same_overrides(a, b) -> bool:
+    """Whether two runs' overrides (decoded JSON) are the same scenario: equal in structure
+    and text, their floats within START_RTOL (START_ATOL near zero)."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(same_overrides(a[k], b[k]) for k in a)
+    if isinstance(a, list) and isinstance(b, list):
+        return len(a) == len(b) and all(same_overrides(x, y) for x, y in zip(a, b))
+    if isinstance(a, float) and isinstance(b, float):
+        return math.isclose(a, b, rel_tol=START_RTOL, abs_tol=START_ATOL)
+    return type(a) is type(b) and a == b
+
+
+def counterparts(rows: list[dict], others: list[dict]) -> dict[str, dict]:
+    """For each of rows (`ResultStore.rows()`), the row of others that is the same scenario:
+    the one with the same run id, else the one at the same place in the plan (group, case,
+    grid point, sample) whose overrides are `same_overrides`; run id -> that row."""
+    by_id = {row["run_id"]: row for row in others}
+    by_place = {}
+    for row in others:
+        by_place.setdefault(_place(row), []).append(row)
+    matches = {}
+    for row in rows:
+        match = by_id.get(row["run_id"])
+        if match is None:
+            match = next(
+                (
+                    other
+                    for other in by_place.get(_place(row), ())
+                    if same_overrides(other["overrides"], row["overrides"])
+                ),
+                None,
+            )
+        if match is not None:
+            matches[row["run_id"]] = match
+    return matches
+
+
+def _place(row: dict) -> tuple:
+    return (row["grp"], row["case_name"], json.dumps(row["grid_point"]), row["sample_index"])
 
 
 def mission_success(row: dict) -> bool | None:

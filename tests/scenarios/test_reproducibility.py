@@ -22,6 +22,11 @@ def _row(run_id: str, index: int, status: str = "ok", flown: str = "2026-12-06T0
     }
     return {
         "run_id": run_id,
+        "grp": "g",
+        "case_name": "c",
+        "grid_point": {},
+        "sample_index": index,
+        "overrides": {"chaser.rpy_LC_deg": [-116.42714875354147 + index, 8.35421525570351]},
         "status": status,
         "reason": "boom" if status == "failed" else None,
         "metrics": summary if status == "ok" else None,
@@ -67,3 +72,16 @@ def test_two_flights_compare_equal_and_a_changed_value_is_named():
     assert changed.compared == 2 and changed.same == 1
     assert changed.differing == {"b": ["delta_v_m_s", "final_p_LC_L[2]"]}
     assert (changed.only_here, changed.only_there) == (1, 1)
+
+
+def test_a_start_planned_on_another_cpu_is_compared_with_its_counterpart():
+    """Its run id differs (the hash of a start whose last bits another CPU's kernels round
+    otherwise); it is the same run all the same, and a second flight of it."""
+    first = [_row("a", 0), _row("b", 1)]
+    second = [_row("a", 0, flown="2026-12-07T01:00"), _row("b-other-cpu", 1, flown="2026-12-07")]
+    second[1]["overrides"]["chaser.rpy_LC_deg"][0] = -115.42714875354145  # two ulps away
+    result = compare_runs(second, first)
+    assert (result.compared, result.same, result.only_here, result.only_there) == (2, 2, 0, 0)
+    second[1]["overrides"]["chaser.rpy_LC_deg"][0] = -115.4271  # another start
+    result = compare_runs(second, first)
+    assert (result.compared, result.only_here, result.only_there) == (1, 1, 1)
