@@ -89,7 +89,7 @@ def line_of_sight_angles(p_LC_L: np.ndarray) -> np.ndarray:
 
 def _failure_status(problem: str, solution: SocpSolution) -> tuple[str, str]:
     kind = "infeasible" if solution.solution_result in _INFEASIBLE_RESULTS else "solver_failure"
-    reason = f"{problem}: Clarabel {solution.solver_status} ({solution.solution_result})"
+    reason = f"{problem}: {solution.solver} {solution.solver_status} ({solution.solution_result})"
     return f"{problem.lower().replace(' ', '')}_{kind}", reason
 
 
@@ -107,18 +107,14 @@ def evaluate_alpha(
         unless ``with_gradient``.
     """
     N = len(p_LC_L)
-    alpha = np.empty(N)
-    grad_p = np.empty((N, 3)) if with_gradient else None
-    grad_theta = np.empty((N, 3)) if with_gradient else None
-    statuses = []
-    origin = np.zeros(3)
-    for k in range(N):  # one small LP per knot
-        result = metric.evaluate(R_LC[k], p_LC_L[k], R_LT[k], origin)
-        alpha[k] = result.alpha
-        statuses.append(result.status)
-        if with_gradient:
-            grad_p[k] = result.d_alpha_d_p_a
-            grad_theta[k] = result.d_alpha_d_theta_a
+    origin = np.zeros((N, 3))
+    metrics = metric.evaluate_many(R_LC, p_LC_L, R_LT, origin)  # the N LPs in one solve
+    alpha = np.array([result.alpha for result in metrics])
+    statuses = [result.status for result in metrics]
+    grad_p = grad_theta = None
+    if with_gradient:
+        grad_p = np.array([result.d_alpha_d_p_a for result in metrics])
+        grad_theta = np.array([result.d_alpha_d_theta_a for result in metrics])
     return alpha, grad_p, grad_theta, statuses
 
 

@@ -129,6 +129,57 @@ def test_matches_minkowski_gauge_on_random_poses():
         np.testing.assert_allclose(metric.d_alpha_d_p_b, gradient_p_b, atol=1e-8)
 
 
+def test_many_poses_in_one_lp_match_the_minkowski_gauge_and_one_by_one():
+    """evaluate_many: the K LPs side by side are the K LPs (values, gradients, statuses); a
+    pose that is not finite is reported as evaluate reports it, and the rest still solve."""
+    rng = np.random.default_rng(4)
+    program = ScalingMetricProgram(CHASER, TARGET)
+    poses = [_random_pose_pair(rng, (0.1, 60.0)) for _ in range(40)]
+    R_a, p_a, R_b, p_b = (np.array([pose[i] for pose in poses]) for i in range(4))
+    many = program.evaluate_many(R_a, p_a, R_b, p_b)
+    for pose, metric in zip(poses, many):
+        one = program.evaluate(*pose)
+        alpha, gradient_p_b = _minkowski_gauge(CHASER, pose[0], pose[1], TARGET, pose[2], pose[3])
+        assert metric.status == "ok"
+        assert metric.alpha == pytest.approx(alpha, rel=ALPHA_TOL, abs=ALPHA_TOL)
+        np.testing.assert_allclose(metric.d_alpha_d_p_b, gradient_p_b, atol=1e-8)
+        for name in ("d_alpha_d_p_a", "d_alpha_d_theta_a", "d_alpha_d_theta_b"):
+            np.testing.assert_allclose(getattr(metric, name), getattr(one, name), atol=1e-7)
+    p_a[3] = np.nan
+    with_nan = program.evaluate_many(R_a, p_a, R_b, p_b)
+    assert with_nan[3].status == "non_finite_pose"
+    assert [m.alpha for i, m in enumerate(with_nan) if i != 3] == pytest.approx(
+        [m.alpha for i, m in enumerate(many) if i != 3], rel=ALPHA_TOL
+    )
+    with pytest.raises(ValueError, match="rotation"):
+        program.evaluate_many(2.0 * R_a, p_a, R_b, p_b)
+
+
+def test_many_poses_recheck_every_block_and_solve_a_failed_one_alone(monkeypatch):
+    rng = np.random.default_rng(5)
+    program = ScalingMetricProgram(CHASER, TARGET)
+    poses = [_random_pose_pair(rng, (0.5, 30.0)) for _ in range(6)]
+    R_a, p_a, R_b, p_b = (np.array([pose[i] for pose in poses]) for i in range(4))
+    checked = []
+    real_check = program._kkt_holds_many
+
+    def check_then_fail_block_2(M, x, lam, h_b):
+        good = real_check(M, x, lam, h_b)
+        checked.append(good.copy())
+        assert not real_check(M, x, 1.5 * lam, h_b).any()  # a wrong multiplier fails it
+        good[2] = False
+        return good
+
+    monkeypatch.setattr(program, "_kkt_holds_many", check_then_fail_block_2)
+    alone = []
+    real_evaluate = program.evaluate
+    monkeypatch.setattr(program, "evaluate", lambda *pose: alone.append(1) or real_evaluate(*pose))
+    many = program.evaluate_many(R_a, p_a, R_b, p_b)
+    assert checked[0].all() and len(alone) == 1  # only the failed block was solved alone
+    for pose, metric in zip(poses, many):
+        assert metric.alpha == pytest.approx(real_evaluate(*pose).alpha, rel=ALPHA_TOL)
+
+
 def test_matches_bisection_on_separation_distance():
     # alpha* is the scaling at which the Euclidean distance of the scaled bodies reaches 0.
     # separation_distance reports 0 below 1e-9 m and the distance grows at >~1 m per unit of
