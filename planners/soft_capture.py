@@ -54,6 +54,7 @@ from rpod.planners.soft_capture_socp import SocpData, SoftCaptureSocp
 from rpod.planners.target_prediction import TargetPrediction, predict_target
 
 TERMINAL_VELOCITY_POINTS = ("chaser_capture_point", "chaser_center_of_mass")
+SOCP_SOLVERS = ("clarabel", "ecos", "qoco")
 
 MAX_GRID_KNOTS = 50_000
 """Most knots over the horizon grid (the sum of its N): the planner keeps a Problem 2 and a
@@ -141,6 +142,17 @@ class SoftCaptureSettings:
             (default) or "chaser_center_of_mass" (module docstring).
         check_tumble_limit: Return "tumble_rate_above_limit" without solving when the initial
             tumble rate exceeds min(omega_max, v_max / |D_c + D_t|) (Sec. VI-B's envelope).
+        socp_solver: Who solves Problems 2 and 3: "clarabel" (Drake's ClarabelSolver),
+            "ecos" or "qoco" (their own packages, on the program's standard form,
+            rpod.planners.conic_form). QOCO cannot tell an infeasible horizon: it ends at its
+            iteration limit, which the search counts as a failure to solve.
+        socp_scaled: Write Problems 2 and 3 in units rather than SI (rpod.planners
+            .soft_capture_socp, "Units"): the same optimum in fewer iterations.
+        socp_iterative_refinement: Clarabel refines every KKT solve (its default); off, each
+            iteration costs ~30 % less. Clarabel stops on residuals computed from the data,
+            not from the KKT solves, so an unrefined solve can cost iterations but not accuracy
+            (measured: the same statuses and optima to 2e-8 relative,
+            benchmarks/results/soft_capture_solvers.md).
     """
 
     fuel_weight_gamma: float = positive(5.0, 1e9)
@@ -161,6 +173,9 @@ class SoftCaptureSettings:
     horizon_step: int = count(10, 1, 5000)
     terminal_velocity_point: str = "chaser_capture_point"
     check_tumble_limit: bool = True
+    socp_solver: str = "clarabel"
+    socp_scaled: bool = True
+    socp_iterative_refinement: bool = False
 
     def horizon_grid(self) -> list[int]:
         """The N values the search tries, in order."""
@@ -194,6 +209,10 @@ class SoftCaptureSettings:
                 f"the horizon grid {self.min_knots}..{self.max_knots} by {self.horizon_step} "
                 f"holds {knots} knots, must be at most {MAX_GRID_KNOTS} (a larger step or a "
                 "smaller max_knots)",
+            )
+        if self.socp_solver not in SOCP_SOLVERS:
+            raise ConfigError(
+                "socp_solver", f"must be one of {SOCP_SOLVERS}, got {self.socp_solver!r}"
             )
         if self.terminal_velocity_point not in TERMINAL_VELOCITY_POINTS:
             raise ConfigError(

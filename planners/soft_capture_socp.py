@@ -4,8 +4,9 @@ Owns: one ``MathematicalProgram`` per horizon length N holding the convex soft-c
 (CW dynamics with the exact zero-order hold, thrust, speed, range lift, the field-of-view
 relaxation, the docking cone, the terminal capture conditions, the L1 fuel cost and, for
 Problem 3, the linearised collision rows with their penalised slacks), the per-solve data
-updates, and the solve with ``ClarabelSolver``. Does not own: the SCP iteration, the horizon
-search or the config (``rpod.planners.soft_capture``), the pointing law
+updates, and the solve (Drake's ``ClarabelSolver``, or ECOS or QOCO on the program's standard
+form, ``rpod.planners.conic_form``). Does not own: the SCP iteration, the horizon search or the
+config (``rpod.planners.soft_capture``), the pointing law
 (``rpod.planners.pointing``), the collision metric (``rpod.models.collision``).
 
 Decision variables (N knots, k = 0..N-1, t_k = k dt): ``x_k = [p_LC_L, v_LC_L]`` (chaser centre
@@ -68,6 +69,15 @@ mass is at ``p* = R_LT (D_t - R_y(pi) D_c)`` (= ``R_LT (D_t + D_c)`` for the Tab
 ``|r_N-1 - p*| <= eps_p`` (13). Velocity (14) constrains the chaser centre of mass,
 ``|v_N-1 - v*| <= eps_v``, with ``v*`` chosen by the caller (``soft_capture.py``): the default
 makes the chaser capture point move with the target capture point, ``R_LT (w_LT_T x D_t)``.
+
+Units (``scaled=True``, the default). The program's variables are the physical ones divided by
+fixed units: positions, the lift and the field-of-view slack by ``POSITION_UNIT_M``, velocities
+by v_max, forces (u, w) by U_max; the cost is divided by its largest coefficient. In SI the
+dynamics rows mix 1 with (B_d / m) ~ 3e-4 and the cost weighs metres against newtons, and
+Clarabel needs 26-35 iterations at N = 100; in these units 15-21, for the same optimum
+(benchmarks/bench_soft_capture.py compares both in one run). Every number the class takes or
+returns (``set_data``, ``set_linearisation``, ``SocpSolution``) is in SI; only the program
+inside is scaled.
 """
 
 from __future__ import annotations
@@ -77,9 +87,20 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-from pydrake.solvers import ClarabelSolver, MathematicalProgram
+from pydrake.solvers import ClarabelSolver, MathematicalProgram, SolverOptions
 
 from rpod.models.cw import cw_state_transition, cw_zoh_input
+from rpod.planners.conic_form import ConicForm, solve_conic
+
+_SOLVER_NAMES = {"clarabel": "Clarabel", "ecos": "ECOS", "qoco": "QOCO"}
+# A standard-form solve's status as Drake's SolutionResult names it (soft_capture_scp reads it).
+_CONIC_RESULTS = {
+    "solved": "kSolutionFound",
+    "infeasible": "kInfeasibleConstraints",
+    "iteration_limit": "kIterationLimit",
+    "failed": "kSolverSpecificError",
+}
+POSITION_UNIT_M = 10.0  # the program's unit of position, lift and field-of-view slack (docstring)
 
 
 @dataclass(frozen=True)
@@ -113,6 +134,8 @@ class SocpSolution:
         rho: Range lift (N,) [m].
         slack: Collision slacks (N,) (0 at knot 0 and in Problem 2).
         cost: Optimal cost (NaN unless success).
+        solver: The solver's name, e.g. ``"Clarabel"``.
+        iterations: Its interior-point iterations.
     """
 
     success: bool
@@ -124,6 +147,8 @@ class SocpSolution:
     rho: np.ndarray
     slack: np.ndarray
     cost: float
+    solver: str = "Clarabel"
+    iterations: int = 0
 
 
 def fov_chord_factor(omega_max: float, dt: float) -> float:
@@ -155,6 +180,10 @@ class SoftCaptureSocp:
         N: Number of knots (>= 2).
         with_collision: Build Problem 3 (fuel weight gamma, collision rows and slacks) instead of
             Problem 2 (fuel weight 1).
+
+    The config's ``socp_scaled`` writes the program in units (module docstring, "Units"), and
+    its ``socp_solver`` names the solver: Drake's ClarabelSolver, or ECOS or QOCO on the
+    program's standard form (rpod.planners.conic_form), built once and refreshed per solve.
     """
 
     def __init__(self, config, N: int, with_collision: bool):
@@ -163,15 +192,39 @@ class SoftCaptureSocp:
         self.N = N
         self.with_collision = with_collision
         c = config
+        self.scaled = scaled = c.socp_scaled
+        self.solver = c.socp_solver
         n, dt, m = c.mean_motion, c.dt_s, c.chaser_mass_kg
+        K = N - 1
         prog = self.prog = MathematicalProgram()
         self._x = prog.NewContinuousVariables(6 * N, "x")
-        self._u = prog.NewContinuousVariables(3 * (N - 1), "u")
-        self._w = prog.NewContinuousVariables(3 * (N - 1), "w")
+        self._u = prog.NewContinuousVariables(3 * K, "u")
+        self._w = prog.NewContinuousVariables(3 * K, "w")
         self._rho = prog.NewContinuousVariables(N, "rho")
+        if with_collision:
+            self._sigma = prog.NewContinuousVariables(K, "sigma")
+            self._s = prog.NewContinuousVariables(K, "s")
         X = self._x.reshape(N, 6)
         U = self._u.reshape(N - 1, 3)
         self._r_vars = X[:, :3]
+
+        # The unit of every variable (1 in SI): physical value = unit * program variable.
+        length, speed, force = (
+            (POSITION_UNIT_M, c.max_speed_m_s, c.max_thrust_N) if scaled else (1, 1, 1)
+        )
+        unit = np.ones(prog.num_vars())
+        unit[: 6 * N] = np.tile([length] * 3 + [speed] * 3, N)
+        unit[6 * N : 6 * N + 6 * K] = force  # u and w
+        unit[6 * N + 6 * K : 7 * N + 6 * K] = length  # rho
+        if with_collision:
+            unit[7 * N + 6 * K : 7 * N + 7 * K] = length  # sigma [m]; s is dimensionless
+        self._unit = unit
+        self._unit_x = unit[: 6 * N].reshape(N, 6)
+
+        def scaled_A(A, variables):
+            """A's columns times the units of variables: A z_SI = scaled_A z_program."""
+            scale = unit[prog.FindDecisionVariableIndices(variables)]
+            return A @ sp.diags(scale) if sp.issparse(A) else np.asarray(A) * scale
 
         # Initial state: a bounding box on x_0, rewritten per solve.
         self._initial = prog.AddBoundingBoxConstraint(np.zeros(6), np.zeros(6), X[0]).evaluator()
@@ -179,7 +232,6 @@ class SoftCaptureSocp:
         # Dynamics (5): x_k+1 - Phi x_k - (B_d / m) u_k = 0, one sparse block for all k.
         Phi = cw_state_transition(n, dt)
         Bd_m = cw_zoh_input(n, dt) / m  # u is a force; B_d maps accelerations
-        K = N - 1
         A_dyn = sp.hstack(
             [
                 sp.kron(sp.eye(K, N, k=1), sp.eye(6)) - sp.kron(sp.eye(K, N), Phi),
@@ -187,9 +239,12 @@ class SoftCaptureSocp:
             ],
             format="csc",
         )
-        prog.AddLinearEqualityConstraint(A_dyn, np.zeros(6 * K), np.concatenate([self._x, self._u]))
+        dynamics_vars = np.concatenate([self._x, self._u])
+        prog.AddLinearEqualityConstraint(
+            scaled_A(A_dyn, dynamics_vars).tocsc(), np.zeros(6 * K), dynamics_vars
+        )
 
-        # L1 epigraph: -w <= u <= w, vectorised over all components.
+        # L1 epigraph: -w <= u <= w, vectorised over all components (u and w share a unit).
         I3K = sp.eye(3 * K, format="csc")
         prog.AddLinearConstraint(
             sp.vstack([sp.hstack([I3K, -I3K]), sp.hstack([-I3K, -I3K])], format="csc"),
@@ -198,32 +253,35 @@ class SoftCaptureSocp:
             np.concatenate([self._u, self._w]),
         )
 
-        # Range lift (16): 0 <= rho_k <= r_max and |r_k| <= rho_k.
-        prog.AddBoundingBoxConstraint(0.0, c.max_range_m, self._rho)
+        # Range lift (16): rho_k <= r_max and |r_k| <= rho_k (which implies rho_k >= 0: no row).
+        prog.AddBoundingBoxConstraint(-np.inf, c.max_range_m / length, self._rho)
         lift_A = np.zeros((4, 4))
         lift_A[0, 3] = 1.0
         lift_A[1:, :3] = np.eye(3)
         for k in range(N):
             _lorentz(prog, lift_A, np.zeros(4), np.concatenate([X[k, :3], [self._rho[k]]]))
 
-        # Thrust (9) and speed (10) bounds.
+        # Thrust (9) and speed (10) bounds, |u_k| <= U_max and |v_k| <= v_max, in units.
         bound_A = np.vstack([np.zeros((1, 3)), np.eye(3)])
         for k in range(K):
-            _lorentz(prog, bound_A, np.array([c.max_thrust_N, 0.0, 0.0, 0.0]), U[k])
+            _lorentz(prog, bound_A, np.array([c.max_thrust_N / force, 0.0, 0.0, 0.0]), U[k])
         for k in range(N):
-            _lorentz(prog, bound_A, np.array([c.max_speed_m_s, 0.0, 0.0, 0.0]), X[k, 3:])
+            _lorentz(prog, bound_A, np.array([c.max_speed_m_s / speed, 0.0, 0.0, 0.0]), X[k, 3:])
 
         # Field of view (12). Problem 2: the (FOV) relaxation on the lift, sin(phi/2) (rho_k +
         # rho_k+1) >= |r_k+1 - r_k| on [r_k, r_k+1, rho_k, rho_k+1]. Problem 3: (FOV-i), the
         # lift replaced by its lower bound g_k^T r_k about the iterate, on [r_k, r_k+1]
-        # (coefficients written per solve by set_linearisation). Module docstring.
+        # (coefficients written per solve by set_linearisation). Module docstring. All these
+        # variables are lengths: one unit, so the cones are the same in units as in SI.
         self._chord = fov_chord_factor(c.max_los_rate_rad_s, dt)
         fov_A = np.zeros((4, 7 if with_collision else 8))
         fov_A[1:, :3] = -np.eye(3)
         fov_A[1:, 3:6] = np.eye(3)
         if with_collision:
             fov_A[0, 6] = 1.0  # + sigma_k, the penalised slack of (FOV-i)
-            self._sigma = prog.NewContinuousVariables(K, "sigma")
+            # sin(phi/2) g^T on r_k, r_k+1, written by set_linearisation; nonzero from the
+            # start, the pattern the standard form keeps (rpod.planners.conic_form).
+            fov_A[0, :6] = self._chord
             fov_tail = [self._sigma[k : k + 1] for k in range(K)]
         else:
             fov_A[0, 6:] = self._chord
@@ -236,56 +294,79 @@ class SoftCaptureSocp:
             for k in range(K)
         ]
 
-        # Docking cone (11) over the last N_dock knots; coefficients depend on R_LT,k.
+        # Docking cone (11) over the last N_dock knots; coefficients depend on R_LT,k. In
+        # units the cone is divided through by the length unit (its b too).
+        self._length = length
         self._tan_dock = float(np.tan(np.radians(c.docking_half_angle_deg)))
         D_t = np.asarray(c.p_TDt_T, dtype=float)
         self._c_t = D_t / np.linalg.norm(D_t)
         self._P_t = _normal_plane_basis(self._c_t)
-        self._dock_b = np.array([-self._tan_dock * float(self._c_t @ D_t), 0.0, 0.0])
+        self._dock_b = np.array([-self._tan_dock * float(self._c_t @ D_t), 0.0, 0.0]) / length
         self._dock_knots = np.arange(max(0, N - c.docking_knots), N)
-        self._dock = [_lorentz(prog, np.eye(3), np.zeros(3), X[k, :3]) for k in self._dock_knots]
+        # Written by set_data; dense from the start (the pattern the standard form keeps).
+        self._dock = [
+            _lorentz(prog, np.ones((3, 3)), np.zeros(3), X[k, :3]) for k in self._dock_knots
+        ]
 
-        # Terminal position (13) and velocity (14): [eps; z_N - target] in the Lorentz cone.
+        # Terminal position (13) and velocity (14): [eps; z_N - target] in the Lorentz cone,
+        # in units of length and speed.
         self._eps_p, self._eps_v = c.capture_position_tol_m, c.capture_speed_tol_m_s
+        self._speed = speed
         self._terminal_p = _lorentz(prog, bound_A, np.zeros(4), X[N - 1, :3])
         self._terminal_v = _lorentz(prog, bound_A, np.zeros(4), X[N - 1, 3:])
 
-        # Cost: fuel weight * sum(w) + sum(rho) (+ psi sum(s)); Problem 2 / Problem 3.
+        # Cost: fuel weight * sum(w) + sum(rho) (+ psi sum(s + sigma)); Problem 2 / Problem 3,
+        # in units divided by its largest coefficient (cost_scale, undone in solve()).
         fuel_weight = c.fuel_weight_gamma if with_collision else c.problem2_fuel_weight
         cost_vars = [self._w, self._rho]
         cost_coefficients = [np.full(3 * K, fuel_weight), np.ones(N)]
         if with_collision:
-            self._s = prog.NewContinuousVariables(K, "s")
             prog.AddBoundingBoxConstraint(0.0, np.inf, np.concatenate([self._s, self._sigma]))
             cost_vars += [self._s, self._sigma]
             cost_coefficients += [np.full(K, c.slack_penalty_psi)] * 2
             # Linearised collision (25) at knots 1..N-1: J_k . r_k + s_k >= alpha_min -
-            # alpha_k^i + J_k . r_k^i; the J_k blocks are written per solve.
+            # alpha_k^i + J_k . r_k^i; the J_k blocks are written per solve (times the unit).
             self._alpha_min = c.alpha_min
             self._collision_vars = np.concatenate([self._r_vars[1:].reshape(-1), self._s])
             self._collision_A = sp.hstack(
                 [sp.block_diag([np.ones((1, 3))] * K), sp.eye(K)], format="csc"
             )
+            # Its lower bounds are finite from the start (rewritten before every solve), so that
+            # the standard form (rpod.planners.conic_form) has its rows.
             self._collision = prog.AddLinearConstraint(
-                self._collision_A, np.full(K, -np.inf), np.full(K, np.inf), self._collision_vars
+                self._collision_A, np.zeros(K), np.full(K, np.inf), self._collision_vars
             ).evaluator()
-        prog.AddLinearCost(np.concatenate(cost_coefficients), 0.0, np.concatenate(cost_vars))
+        cost_vars = np.concatenate(cost_vars)
+        cost = scaled_A(np.concatenate(cost_coefficients), cost_vars)
+        self.cost_scale = float(np.max(np.abs(cost))) if scaled else 1.0
+        prog.AddLinearCost(cost / self.cost_scale, 0.0, cost_vars)
         self._solver = ClarabelSolver()
+        self._options = SolverOptions()
+        if not c.socp_iterative_refinement:
+            self._options.SetOption(ClarabelSolver.id(), "iterative_refinement_enable", False)
+        self._form = None
+        if self.solver != "clarabel":
+            dynamic = [self._initial, *self._dock, self._terminal_p, self._terminal_v]
+            if with_collision:
+                dynamic += [b.evaluator() for b in self.fov_constraints] + [self._collision]
+            self._form = ConicForm(prog, dynamic)
 
     def set_data(self, data: SocpData) -> None:
-        """Writes the per-solve data (initial state, docking cone, terminal targets)."""
-        x0 = np.asarray(data.x0, dtype=float)
+        """Writes the per-solve data (initial state, docking cone, terminal targets), in SI."""
+        x0 = np.asarray(data.x0, dtype=float) / self._unit_x[0]
         self._initial.set_bounds(x0, x0)
         for evaluator, R_LT in zip(self._dock, data.R_LT_dock[-len(self._dock) :]):
             # [tan(theta) c_t^T R^T r - tan(theta) c_t^T D_t; P R^T r - P D_t], P D_t = 0.
             A = np.vstack([self._tan_dock * (self._c_t @ R_LT.T), self._P_t @ R_LT.T])
             evaluator.UpdateCoefficients(A, self._dock_b)
         bound_A = np.vstack([np.zeros((1, 3)), np.eye(3)])
+        p_terminal = np.asarray(data.p_terminal_L, float)
+        v_terminal = np.asarray(data.v_terminal_L, float)
         self._terminal_p.UpdateCoefficients(
-            bound_A, np.concatenate([[self._eps_p], -np.asarray(data.p_terminal_L, float)])
+            bound_A, np.concatenate([[self._eps_p], -p_terminal]) / self._length
         )
         self._terminal_v.UpdateCoefficients(
-            bound_A, np.concatenate([[self._eps_v], -np.asarray(data.v_terminal_L, float)])
+            bound_A, np.concatenate([[self._eps_v], -v_terminal]) / self._speed
         )
 
     def set_linearisation(self, alpha: np.ndarray, J: np.ndarray, r_ref: np.ndarray) -> None:
@@ -310,53 +391,71 @@ class SoftCaptureSocp:
             A_fov[0, 3:6] = self._chord * g[k + 1]
             binding.evaluator().UpdateCoefficients(A_fov, zero_b)
         A = self._collision_A.copy()
-        A.data[: 3 * K] = J[1:].reshape(-1)  # block_diag's csc data are the J rows, in order
+        # block_diag's csc data are the J rows, in order; J [1/m] times the length unit.
+        A.data[: 3 * K] = J[1:].reshape(-1) * self._length
         lower = self._alpha_min - alpha[1:] + np.sum(J[1:] * r_ref[1:], axis=1)
         self._collision.UpdateCoefficients(A, lower, np.full(K, np.inf))
 
     def solve(self) -> SocpSolution:
-        """Solves with Clarabel (default options); never raises on infeasibility."""
-        N = self.N
+        """Solves with the config's solver; never raises on infeasibility or a failed solve."""
         start = time.perf_counter()
-        try:
-            result = self._solver.Solve(self.prog, None, None)
-        except RuntimeError as error:  # Drake reports solver-internal errors this way
-            return SocpSolution(
-                success=False,
-                solution_result="solver_error",
-                solver_status=str(error),
-                solve_time_s=time.perf_counter() - start,
-                x=np.full((N, 6), np.nan),
-                u=np.full((N - 1, 3), np.nan),
-                rho=np.full(N, np.nan),
-                slack=np.full(N, np.nan),
-                cost=np.nan,
+        if self._form is not None:
+            self._form.refresh()
+            conic = solve_conic(self._form, self.solver)
+            return self._solution(
+                conic.status == "solved",
+                _CONIC_RESULTS[conic.status],
+                conic.solver_status,
+                time.perf_counter() - start,
+                conic.z,
+                conic.cost,
+                conic.iterations,
             )
-        elapsed = time.perf_counter() - start
+        try:
+            result = self._solver.Solve(self.prog, None, self._options)
+        except RuntimeError as error:  # Drake reports solver-internal errors this way
+            nan = np.full(self.prog.num_vars(), np.nan)
+            elapsed = time.perf_counter() - start
+            return self._solution(False, "solver_error", str(error), elapsed, nan, np.nan, 0)
         details = result.get_solver_details()
-        success = result.is_success()
+        return self._solution(
+            result.is_success(),
+            result.get_solution_result().name,
+            str(details.status),
+            time.perf_counter() - start,
+            result.get_x_val(),
+            float(result.get_optimal_cost()),
+            int(details.iterations),
+        )
+
+    def _solution(self, success, result, status, elapsed, z, cost, iterations) -> SocpSolution:
+        """The solve in SI: z (the program's variables) times their units, the cost unscaled."""
+        N, K = self.N, self.N - 1
         nan = np.nan
         if success:
-            x = result.GetSolution(self._x).reshape(N, 6)
-            u = result.GetSolution(self._u).reshape(N - 1, 3)
-            rho = result.GetSolution(self._rho)
+            z = z * self._unit
+            x = z[: 6 * N].reshape(N, 6)
+            u = z[6 * N : 6 * N + 3 * K].reshape(K, 3)
+            rho = z[6 * N + 6 * K : 7 * N + 6 * K]
             slack = np.zeros(N)
             if self.with_collision:
-                slack[1:] = result.GetSolution(self._s)
-            cost = float(result.get_optimal_cost())
+                slack[1:] = z[7 * N + 7 * K :]
+            cost = cost * self.cost_scale
         else:
-            x, u = np.full((N, 6), nan), np.full((N - 1, 3), nan)
+            x, u = np.full((N, 6), nan), np.full((K, 3), nan)
             rho, slack, cost = np.full(N, nan), np.full(N, nan), nan
         return SocpSolution(
             success=success,
-            solution_result=result.get_solution_result().name,
-            solver_status=str(details.status),
+            solution_result=result,
+            solver_status=status,
             solve_time_s=elapsed,
             x=x,
             u=u,
             rho=rho,
             slack=slack,
             cost=cost,
+            solver=_SOLVER_NAMES[self.solver],
+            iterations=iterations,
         )
 
 
