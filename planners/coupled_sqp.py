@@ -43,16 +43,25 @@ import math
 
 import numpy as np
 import osqp
+import piqp
 import scipy.sparse as sp
 
 from rpod.models import coupled_relative as cr
-from rpod.models.config import bounded, check_bounds, count, positive
+from rpod.models.config import ConfigError, bounded, check_bounds, count, positive
 from rpod.models.gimbal import gimbal_constraint_matrix
 from rpod.planners import coupled_shooting as cs
 
 _logger = logging.getLogger(__name__)
 
 NX = cs.NX
+QP_SOLVERS = ("osqp", "piqp")
+# PIQP's statuses in OSQP's words (what run() and the outcome read).
+_PIQP_STATUS = {
+    piqp.PIQP_SOLVED: "solved",
+    piqp.PIQP_MAX_ITER_REACHED: "maximum iterations reached",
+    piqp.PIQP_PRIMAL_INFEASIBLE: "primal infeasible",
+    piqp.PIQP_DUAL_INFEASIBLE: "dual infeasible",
+}
 
 _SCALES = np.concatenate(
     [
@@ -90,7 +99,11 @@ class SqpSettings:
         osqp_eps: OSQP's absolute and relative tolerances.
         rti_osqp_eps: The same for a real-time iteration's QP (RTI's step is inexact by design;
             at 1e-6 OSQP's ADMM took ~900 iterations, 24 ms, on the closed loop's QPs).
-        osqp_max_iter: OSQP's iteration limit.
+        osqp_max_iter: OSQP's iteration limit (PIQP's too).
+        qp_solver: "osqp" (ADMM, warm-started from the last answer shifted one interval) or
+            "piqp" (a proximal interior point: ~10-20 iterations whatever the QP's conditioning,
+            where OSQP takes hundreds to thousands; issue 23). osqp_eps and rti_osqp_eps are
+            then PIQP's absolute and relative tolerances.
 
     Bounds (rpod.models.config, checked by `validate()`): SQP iterations in [1, 10000] (the
     cold start's may be 0: then a cold solve stops at `max_iterations` too), each a full
@@ -108,10 +121,14 @@ class SqpSettings:
     osqp_eps: float = positive(1e-6, 1.0)
     rti_osqp_eps: float = positive(1e-4, 1.0)
     osqp_max_iter: int = count(20000, 1, 1_000_000)
+    qp_solver: str = "osqp"
 
     def validate(self) -> None:
-        """Raises ConfigError naming the first field outside its declared bounds."""
+        """Raises ConfigError naming the first field outside its declared bounds (or an unknown
+        qp_solver)."""
         check_bounds(self)
+        if self.qp_solver not in QP_SOLVERS:
+            raise ConfigError("qp_solver", f"must be one of {QP_SOLVERS}, got {self.qp_solver!r}")
 
 
 @dataclasses.dataclass
@@ -359,6 +376,9 @@ class CoupledSqp:
         E[self.rows["rate"]] = 1.0 / _SCALES[9]
         self._row_scale = E
         self._A_scale = E[self._A_rows] * self.D[self._A_cols]
+        if self.settings.qp_solver == "piqp":
+            self._setup_piqp(P0, A0)
+            return
         self._solver = osqp.OSQP()
         self._solver.setup(
             P=P0,
@@ -376,6 +396,64 @@ class CoupledSqp:
         )
         self._eps = self.settings.osqp_eps
 
+    def _setup_piqp(self, P0, A0) -> None:
+        """PIQP on the same scaled QP: P's upper triangle; the defect rows as equalities
+        A_eq z = b, every other row as h_l <= G z <= h_u (values gathered per solve)."""
+        upper = sp.triu(P0, format="csc")
+        self._P_upper_rows, self._P_upper_cols = _csc_entries(upper)
+        self._P_upper_scale = self.D[self._P_upper_rows] * self.D[self._P_upper_cols]
+        dyn = np.zeros(self.m, dtype=bool)
+        dyn[self.rows["dyn"]] = True
+        self._eq_rows, self._ineq_rows = np.flatnonzero(dyn), np.flatnonzero(~dyn)
+        A_eq, G = A0[self._eq_rows].tocsc(), A0[self._ineq_rows].tocsc()
+        self._eq_entries, self._g_entries = _csc_entries(A_eq), _csc_entries(G)
+        self._P_piqp, self._A_eq, self._G = upper, A_eq, G
+        self._solver = piqp.SparseSolver()
+        self._solver.settings.verbose = False
+        self._solver.settings.max_iter = int(self.settings.osqp_max_iter)
+        self._eps = None  # set by run()
+        self._piqp_ready = False
+
+    def _piqp(self, H, g, A, lo, hi):
+        """One PIQP solve of the scaled QP; (status, z, y, iterations) as `_osqp` returns."""
+        D, E = self.D, self._row_scale
+        sigma = 1.0 / max(1.0, float(np.max(np.abs(g * D))))
+        self._P_piqp.data[:] = H[self._P_upper_rows, self._P_upper_cols] * (
+            self._P_upper_scale * sigma
+        )
+        eq_rows, g_rows = self._eq_rows, self._ineq_rows
+        rows, cols = self._eq_entries
+        self._A_eq.data[:] = A[eq_rows[rows], cols] * E[eq_rows[rows]] * D[cols]
+        rows, cols = self._g_entries
+        self._G.data[:] = A[g_rows[rows], cols] * E[g_rows[rows]] * D[cols]
+        data = {
+            "P": self._P_piqp,
+            "c": g * D * sigma,
+            "A": self._A_eq,
+            "b": lo[eq_rows] * E[eq_rows],
+            "G": self._G,
+            "h_l": lo[g_rows] * E[g_rows],
+            "h_u": hi[g_rows] * E[g_rows],
+        }
+        if self._piqp_ready:
+            self._solver.update(**data)
+        else:
+            self._solver.setup(**data)
+            self._piqp_ready = True
+        status = _PIQP_STATUS.get(self._solver.solve(), "piqp failed")
+        result = self._solver.result
+        iterations = int(result.info.iter)
+        x = np.asarray(result.x, dtype=float)
+        if status != "solved" or not np.all(np.isfinite(x)):
+            return status, None, None, iterations
+        y = np.zeros(self.m)
+        y[eq_rows] = np.asarray(result.y, dtype=float)
+        y[g_rows] = np.asarray(result.z_u, dtype=float) - np.asarray(result.z_l, dtype=float)
+        z = x * D
+        y = y * E / sigma
+        self._last_qp = (z, y)
+        return status, z, y, iterations
+
     def _solve_qp(self, H, g, A, lo, hi):
         """Solves the QP in scaled variables z = D z_s; returns (status, z, y, iterations).
 
@@ -386,10 +464,12 @@ class CoupledSqp:
         ) or np.any(np.isnan(lo) | np.isnan(hi)):
             return "non-finite linearisation", None, None, 0
         try:
+            if self.settings.qp_solver == "piqp":
+                return self._piqp(H, g, A, lo, hi)
             return self._osqp(H, g, A, lo, hi)
-        except (ValueError, RuntimeError) as error:  # OSQP's data validation
+        except (ValueError, RuntimeError) as error:  # the solver's data validation
             self._setup_solver()
-            return f"OSQP error: {error}", None, None, 0
+            return f"{self.settings.qp_solver} error: {error}", None, None, 0
 
     def _osqp(self, H, g, A, lo, hi):
         D, E = self.D, self._row_scale
@@ -520,7 +600,10 @@ class CoupledSqp:
         start = (shooting, x, u, s)
         qp_iterations, message = 0, ""
         eps = st.rti_osqp_eps if real_time else st.osqp_eps
-        if eps != self._eps:  # RTI: a looser QP and no polish (its step is inexact anyway)
+        if eps != self._eps and st.qp_solver == "piqp":
+            self._solver.settings.eps_abs = self._solver.settings.eps_rel = eps
+            self._eps = eps
+        elif eps != self._eps:  # RTI: a looser QP and no polish (its step is inexact anyway)
             self._solver.update_settings(eps_abs=eps, eps_rel=eps, polishing=not real_time)
             self._eps = eps
         max_iterations = 1 if real_time else st.max_iterations

@@ -11,6 +11,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from rpod.models import coupled_relative as cr
+from rpod.models.config import ConfigError
 from rpod.planners import coupled_nmpc as cn
 from rpod.planners import coupled_sqp
 
@@ -78,6 +79,28 @@ def test_real_time_iterations_on_one_problem_reach_the_sqp_answer(sqp_solution):
     print(np.round(errors[::5], 4))
     # Gauss-Newton's linear rate: measured 0.24 N after one step, 0.01 N after 40.
     assert errors[-1] < 0.02 and errors[-1] < 0.1 * errors[0]
+
+
+def test_piqp_reaches_the_same_optimum_as_osqp(sqp_solution):
+    """qp_solver: piqp (an interior point) solves the same QPs: the SQP converges to OSQP's
+    optimum, and the plan meets the same checks."""
+    params, _, x0, osqp_result = sqp_solution
+    settings = cn.CoupledNmpcSettings(solver="sqp")
+    settings.sqp.qp_solver = "piqp"
+    result = cn.CoupledNmpc(params, settings=settings).solve(x0)
+    print(result.status, result.iterations, result.cost, osqp_result.cost)
+    assert result.status is cn.NmpcStatus.SOLVED
+    assert result.cost == pytest.approx(osqp_result.cost, rel=1e-4)
+    np.testing.assert_allclose(result.u, osqp_result.u, atol=0.05)
+    report = cn.check_plan(result, params)
+    assert report["gimbal_excess_N"] < 1e-4 and report["magnitude_excess_N"] < 1e-3
+    assert report["los_excess_m"] < 1e-3
+
+
+def test_an_unknown_qp_solver_is_a_config_error():
+    settings = coupled_sqp.SqpSettings(qp_solver="qpoases")
+    with pytest.raises(ConfigError, match="qp_solver"):
+        settings.validate()
 
 
 def test_a_failed_qp_is_a_status_with_the_solvers_word():
