@@ -163,6 +163,9 @@ class ConicForm:
             entry_rows.append(rows[position])
             entry_cols.append(columns[j])
             count += len(i)
+        found = sum(any(block.evaluator is d for block in self._blocks) for d in self._dynamic)
+        if found != len(self._dynamic):
+            raise ValueError("ConicForm: a dynamic evaluator is not one of the program's")
         self.m = next_row["cone"]
         rows_all = np.concatenate(entry_rows).astype(int)
         cols_all = np.concatenate(entry_cols).astype(int)

@@ -116,18 +116,28 @@ def test_problem_3_solved_by_ecos_and_qoco_through_the_planner_setting():
     first = problem2.solve()
     assert first.success
     r = first.x[:, :3]
-    alpha = np.full(N, 2.0)
-    J = np.tile([0.01, -0.02, 0.03], (N, 1))
-    J[0] = 0.0
+    alpha = np.full(N, 1.25)  # below alpha_min = 1.3: the rows bind, the optimum depends on J
+    linearisations = [np.tile([0.1, -0.05, 0.08], (N, 1)), np.tile([0.3, 0.2, -0.1], (N, 1))]
+    for J in linearisations:
+        J[0] = 0.0
     costs = {}
     for solver in ("clarabel", "ecos", "qoco"):
         problem3 = SoftCaptureSocp(dataclasses.replace(base, socp_solver=solver), N, True)
-        for _ in range(2):  # the second solve reads the rewritten rows again
+        costs[solver] = []
+        for J in linearisations:  # the second solve must read the rewritten rows
             problem3.set_data(data)
             problem3.set_linearisation(alpha, J, r)
             solution = problem3.solve()
             assert solution.success, (solver, solution.solver_status)
-        costs[solver] = solution.cost
+            costs[solver].append(solution.cost)
         assert solution.solver == {"clarabel": "Clarabel", "ecos": "ECOS", "qoco": "QOCO"}[solver]
+    assert costs["clarabel"][0] != pytest.approx(costs["clarabel"][1], rel=1e-3)
     assert costs["ecos"] == pytest.approx(costs["clarabel"], rel=1e-6)
     assert costs["qoco"] == pytest.approx(costs["clarabel"], rel=1e-6)
+
+
+def test_a_dynamic_evaluator_foreign_to_the_program_is_refused():
+    prog = _disc_program()[0]
+    foreign = _disc_program()[1]  # another program's cone
+    with pytest.raises(ValueError, match="not one of the program's"):
+        ConicForm(prog, dynamic=[foreign.evaluator()])
