@@ -70,12 +70,12 @@ mass is at ``p* = R_LT (D_t - R_y(pi) D_c)`` (= ``R_LT (D_t + D_c)`` for the Tab
 ``|v_N-1 - v*| <= eps_v``, with ``v*`` chosen by the caller (``soft_capture.py``): the default
 makes the chaser capture point move with the target capture point, ``R_LT (w_LT_T x D_t)``.
 
-Units (``scaled=True``, the default). The program's variables are the physical ones divided by
+Units (the config's ``socp_scaled``, on by default). The program's variables are the physical ones divided by
 fixed units: positions, the lift and the field-of-view slack by ``POSITION_UNIT_M``, velocities
 by v_max, forces (u, w) by U_max; the cost is divided by its largest coefficient. In SI the
 dynamics rows mix 1 with (B_d / m) ~ 3e-4 and the cost weighs metres against newtons, and
 Clarabel needs 26-35 iterations at N = 100; in these units 15-21, for the same optimum
-(benchmarks/bench_soft_capture.py compares both in one run). Every number the class takes or
+(benchmarks/bench_soft_capture_solvers.py compares both in one run). Every number the class takes or
 returns (``set_data``, ``set_linearisation``, ``SocpSolution``) is in SI; only the program
 inside is scaled.
 """

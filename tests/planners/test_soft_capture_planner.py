@@ -180,3 +180,23 @@ def test_config_loads_from_yaml_with_drake_typed_loader():
     assert config.horizon_step == 5 and config.p_TDt_T == [0.0, 0.0, 3.0]
     assert not config.check_tumble_limit and config.max_thrust_N == 100.0  # default kept
     config.validate()
+
+
+def test_the_socp_settings_load_from_yaml_and_an_unknown_solver_is_named():
+    from pydrake.common.yaml import yaml_load_typed
+
+    from rpod.models.config import ConfigError
+
+    config = yaml_load_typed(
+        schema=SoftCaptureConfig,
+        data="{socp_solver: ecos, socp_scaled: false, socp_iterative_refinement: true}",
+        defaults=SoftCaptureConfig(),
+    )
+    config.validate()
+    assert (config.socp_solver, config.socp_scaled, config.socp_iterative_refinement) == (
+        "ecos",
+        False,
+        True,
+    )
+    with pytest.raises(ConfigError, match="socp_solver"):
+        SoftCaptureConfig(socp_solver="mosek").validate()
