@@ -40,7 +40,7 @@ from machine import machine_line  # benchmarks/machine.py, beside this script
 
 from rpod.scenarios.report import read_results, write_report
 from rpod.scenarios.reproducibility import compare_runs
-from rpod.scenarios.store import STORE_NAME, ResultStore
+from rpod.scenarios.store import STORE_NAME, ResultStore, same_base
 
 RESULTS = pathlib.Path(__file__).resolve().parent / "results"
 TABLE = RESULTS / "shootout.md"
@@ -72,12 +72,15 @@ def _last_commit_of(path: pathlib.Path) -> str:
     return result.stdout.strip() or "uncommitted"
 
 
-def _reproduction_lines(rows: list[dict], committed: list[dict] | None) -> list[str]:
-    """Whether the runs flown again here give the numbers of the committed store's."""
+def _reproduction_lines(
+    rows: list[dict], committed: list[dict] | None, by_start: bool
+) -> list[str]:
+    """Whether the runs flown again here give the numbers of the committed store's (by_start:
+    the two share their base, so a start sampled on another CPU pairs: store.counterparts)."""
     commit = _last_commit_of(STORE_ARCHIVE)
     if committed is None or commit == "uncommitted":
         return []  # no committed flight to compare with
-    comparison = compare_runs(rows, committed)
+    comparison = compare_runs(rows, committed, by_start)
     where = f"the committed store (commit {commit})"
     if comparison.compared == 0:
         return [
@@ -186,11 +189,15 @@ def main() -> int:
     )
 
     FIGURES.mkdir(parents=True, exist_ok=True)
-    committed = None
+    committed, by_start = None, False
     if committed_folder is not None:
-        with ResultStore.open_existing(committed_folder) as store:
+        with (
+            ResultStore.open_existing(committed_folder) as store,
+            ResultStore.open_existing(out) as flown,
+        ):
             committed = store.rows()
-    reproduction = _reproduction_lines(rows, committed)
+            by_start = same_base(flown.meta(), store.meta())
+    reproduction = _reproduction_lines(rows, committed, by_start)
     if not args.fresh:  # a second flight is compared with the committed store, not written over it
         _pack_store(out)
     figures = []

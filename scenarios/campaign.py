@@ -578,6 +578,14 @@ def plain_data(value):
     return value
 
 
+def base_fingerprint(campaign: "Campaign") -> str:
+    """The hash of the campaign's base scenario as this code resolves it (every default
+    included): two stores with the same fingerprint planned their runs on the same base, so a
+    run of one and a run of the other with the same overrides are the same scenario."""
+    canonical = json.dumps(plain_data(campaign.base), sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(canonical.encode()).hexdigest()[:16]
+
+
 def run_id(base_data: dict, overrides: dict, sample_key) -> str:
     """The stable id of a run (see the module docstring)."""
     canonical = json.dumps(

@@ -100,14 +100,15 @@ class RunComparison:
         return self.compared - len(self.differing)
 
 
-def compare_runs(rows: list[dict], earlier: list[dict]) -> RunComparison:
+def compare_runs(rows: list[dict], earlier: list[dict], by_start: bool = False) -> RunComparison:
     """Compares the finished runs of rows with those of earlier (both `ResultStore.rows()`),
-    each with its counterpart (rpod.scenarios.store.counterparts: the same run id, or the same
-    start to a rounding residue when the two were planned on different CPUs), every
-    reproducible cell of either (one a record lacks counts as a difference)."""
+    each with its counterpart (rpod.scenarios.store.counterparts: the same run id, or, with
+    by_start (the two plans share their base: store.same_base), the same start to a rounding
+    residue when the two were planned on different CPUs), every reproducible cell of either
+    (one a record lacks counts as a difference)."""
     here = [row for row in rows if row["status"] != "pending"]
     there = [row for row in earlier if row["status"] != "pending"]
-    matches = counterparts(here, there)
+    matches = counterparts(here, there, by_start)
     by_id = {row["run_id"]: row for row in here}
     again = {
         run_id: match

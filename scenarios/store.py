@@ -332,13 +332,13 @@ class ResultStore:
 
     def reuse(self, other: "ResultStore", label: str) -> int:
         """Records, for every run still pending here, the finished result that `other` holds
-        for the same scenario (`counterparts`: the same run id, or the same start to
-        START_RTOL when the two stores were planned on different CPUs), its worker marked
-        `reused from <label>`; how many. The results are those of the code (and the machine)
-        that flew them into `other`."""
+        for the same scenario (`counterparts`: the same run id, or, when both stores were
+        planned on the same base (`same_base`), the same start to START_RTOL: two CPUs), its
+        worker marked `reused from <label>`; how many. The results are those of the code (and
+        the machine) that flew them into `other`."""
         pending = [row for row in self.rows() if row["status"] == "pending"]
         finished = [row for row in other.rows() if row["status"] in ("ok", "failed")]
-        matches = counterparts(pending, finished)
+        matches = counterparts(pending, finished, by_start=same_base(self.meta(), other.meta()))
         with self._guard("write"), self._connection:
             for run_id, row in matches.items():
                 self._connection.execute(
@@ -447,10 +447,20 @@ def same_overrides(a, b) -> bool:
     return type(a) is type(b) and a == b
 
 
-def counterparts(rows: list[dict], others: list[dict]) -> dict[str, dict]:
+def same_base(meta: dict, other_meta: dict) -> bool:
+    """Whether two stores' plans share their base scenario as resolved by the code that
+    planned them (`meta["base_fingerprint"]`, rpod.scenarios.campaign.base_fingerprint; a
+    store written before it was recorded shares nothing)."""
+    mine = meta.get("base_fingerprint")
+    return mine is not None and mine == other_meta.get("base_fingerprint")
+
+
+def counterparts(rows: list[dict], others: list[dict], by_start: bool = True) -> dict[str, dict]:
     """For each of rows (`ResultStore.rows()`), the row of others that is the same scenario:
-    the one with the same run id, else the one at the same place in the plan (group, case,
-    grid point, sample) whose overrides are `same_overrides`; run id -> that row."""
+    the one with the same run id, else (by_start: the two plans share their base, `same_base`)
+    the one at the same place in the plan (group, case, grid point, sample) whose overrides
+    are `same_overrides`; run id -> that row. Without a shared base, the same overrides may be
+    another scenario (a default of the base changed), so only ids pair."""
     by_id = {row["run_id"]: row for row in others}
     by_place = {}
     for row in others:
@@ -458,7 +468,7 @@ def counterparts(rows: list[dict], others: list[dict]) -> dict[str, dict]:
     matches = {}
     for row in rows:
         match = by_id.get(row["run_id"])
-        if match is None:
+        if match is None and by_start:
             match = next(
                 (
                     other

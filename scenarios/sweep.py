@@ -65,7 +65,7 @@ import traceback
 import uuid
 from collections import deque
 
-from rpod.scenarios.campaign import Campaign, PlannedRun
+from rpod.scenarios.campaign import Campaign, PlannedRun, base_fingerprint
 from rpod.scenarios.loader import ScenarioFileError
 from rpod.scenarios.store import (
     STORE_NAME,
@@ -653,6 +653,7 @@ def _submit_all(
             "campaign_text": campaign.text,
             "base_name": campaign.base_name,
             "base_yaml": campaign.base_yaml,
+            "base_fingerprint": base_fingerprint(campaign),
             "grid": campaign.grid,
             "run_count": len(runs),
         },

@@ -80,8 +80,9 @@ def test_a_start_planned_on_another_cpu_is_compared_with_its_counterpart():
     first = [_row("a", 0), _row("b", 1)]
     second = [_row("a", 0, flown="2026-12-07T01:00"), _row("b-other-cpu", 1, flown="2026-12-07")]
     second[1]["overrides"]["chaser.rpy_LC_deg"][0] = -115.42714875354145  # two ulps away
-    result = compare_runs(second, first)
+    result = compare_runs(second, first, by_start=True)  # the two plans share their base
     assert (result.compared, result.same, result.only_here, result.only_there) == (2, 2, 0, 0)
+    assert compare_runs(second, first).compared == 1  # another base: ids only
     second[1]["overrides"]["chaser.rpy_LC_deg"][0] = -115.4271  # another start
-    result = compare_runs(second, first)
+    result = compare_runs(second, first, by_start=True)
     assert (result.compared, result.only_here, result.only_there) == (1, 1, 1)

@@ -3,6 +3,7 @@ its run id too) is the same scenario, found by its place in the plan and its ove
 start that truly differs is not, and `ResultStore.reuse` records only the same scenarios."""
 
 import numpy as np
+import pytest
 
 from rpod.scenarios.campaign import PlannedRun
 from rpod.scenarios.store import (
@@ -72,25 +73,39 @@ def test_counterparts_match_by_id_then_by_place_and_start():
     }
 
 
-def test_reuse_records_a_start_planned_on_another_cpu(tmp_path):
-    def store(folder, overrides_of):
+def test_without_a_shared_base_only_ids_pair():
+    """The same overrides on another base (a default of the base scenario changed) may be
+    another scenario: pairing by start needs the base in common."""
+    others = [_row("avx512-id", _other_cpu(START), sample_index=2)]
+    assert counterparts([_row("this-cpu-id", START, sample_index=2)], others, by_start=False) == {}
+
+
+@pytest.mark.parametrize("fingerprints, paired", [(("b1", "b1"), 2), (("b1", "b2"), 0)])
+def test_reuse_records_a_start_planned_on_another_cpu_from_the_same_base(
+    tmp_path, fingerprints, paired
+):
+    def store(folder, overrides_of, fingerprint):
         folder.mkdir()
         runs = [
             PlannedRun(f"{folder.name}-{i}", i, "g", "los_corridor", {}, i, overrides_of(i))
             for i in range(3)
         ]
         result = ResultStore(folder / STORE_NAME)
-        result.write_plan({"campaign_name": "t"}, runs)
+        result.write_plan({"campaign_name": "t", "base_fingerprint": fingerprint}, runs)
         return result
 
     def start(i):
         return {**START, "chaser.p_LC_L": [float(i), -34.0, 17.0]}
 
-    with store(tmp_path / "avx512", lambda i: _other_cpu(start(i))) as earlier:
+    with store(tmp_path / "avx512", lambda i: _other_cpu(start(i)), fingerprints[0]) as earlier:
         for i in (0, 2):
             earlier.record(f"avx512-{i}", {"status": "ok", "metrics": {"k": i}, "worker": "w"})
-        with store(tmp_path / "here", start) as here:
-            assert here.reuse(earlier, "first") == 2
+        with store(tmp_path / "here", start, fingerprints[1]) as here:
+            assert here.reuse(earlier, "first") == paired
             rows = {row["run_id"]: row for row in here.rows()}
-    assert [rows[f"here-{i}"]["status"] for i in range(3)] == ["ok", "pending", "ok"]
-    assert rows["here-2"]["metrics"] == {"k": 2} and rows["here-2"]["worker"] == "reused from first"
+    if paired:
+        assert [rows[f"here-{i}"]["status"] for i in range(3)] == ["ok", "pending", "ok"]
+        assert rows["here-2"]["metrics"] == {"k": 2}
+        assert rows["here-2"]["worker"] == "reused from first"
+    else:
+        assert all(row["status"] == "pending" for row in rows.values())

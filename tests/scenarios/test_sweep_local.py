@@ -27,7 +27,7 @@ from campaign_helpers import (
 
 from rpod.diagrams.simulate import simulate
 from rpod.scenarios.campaign import apply_overrides, load_campaign, plan_runs
-from rpod.scenarios.store import ResultStore
+from rpod.scenarios.store import ResultStore, same_base
 
 
 def stored_rows(out):
@@ -246,6 +246,8 @@ def test_reuse_records_the_runs_another_store_finished_and_flies_the_rest(
     rows = stored_rows(new_out)
     reused = [row for row in rows if row["run_id"] in before]
     assert len(reused) == 4 and len(rows) == 8
+    with ResultStore.open_existing(out) as first, ResultStore.open_existing(new_out) as second:
+        assert same_base(first.meta(), second.meta())  # the same base: starts may pair
     for row in reused:
         assert row["worker"] == f"reused from {out}"
         assert row["metrics"] == before[row["run_id"]]["metrics"]
