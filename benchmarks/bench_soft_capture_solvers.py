@@ -39,7 +39,7 @@ import sys
 import time
 
 import numpy as np
-from bench_soft_capture import horizon_data  # benchmarks/, beside this script
+from bench_soft_capture import horizon_data, table  # benchmarks/, beside this script
 from machine import machine_line
 
 from rpod.models.collision import ScalingMetricProgram
@@ -209,12 +209,6 @@ def bench_plans(config, starts):
     return build, plans
 
 
-def table(header, rows) -> str:
-    lines = ["| " + " | ".join(header) + " |", "| --- |" + " ---: |" * (len(header) - 1)]
-    lines += ["| " + " | ".join(str(cell) for cell in row) + " |" for row in rows]
-    return "\n".join(lines)
-
-
 def problem2_table(rows) -> str:
     return table(
         [
@@ -232,7 +226,7 @@ def problem2_table(rows) -> str:
         [
             [
                 row["label"],
-                row["solves"],
+                str(row["solves"]),
                 f"{row['solved']}/{row['starts']}",
                 row["status"],
                 f"{row['iterations'][0]:g} [{row['iterations'][1]}-{row['iterations'][2]}]",

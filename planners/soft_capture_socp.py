@@ -74,7 +74,7 @@ Units (the config's ``socp_scaled``, on by default). The program's variables are
 fixed units: positions, the lift and the field-of-view slack by ``POSITION_UNIT_M``, velocities
 by v_max, forces (u, w) by U_max; the cost is divided by its largest coefficient. In SI the
 dynamics rows mix 1 with (B_d / m) ~ 3e-4 and the cost weighs metres against newtons, and
-Clarabel needs 26-35 iterations at N = 100; in these units 15-21, for the same optimum
+Clarabel needs 24-35 iterations at N = 100; in these units 17-22, for the same optimum
 (benchmarks/bench_soft_capture_solvers.py compares both in one run). Every number the class takes or
 returns (``set_data``, ``set_linearisation``, ``SocpSolution``) is in SI; only the program
 inside is scaled.
