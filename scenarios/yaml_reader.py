@@ -5,7 +5,8 @@ lists, strings, numbers, booleans), and the rules that make that safe and unsurp
 - Numbers are read as YAML 1.2 reads them. PyYAML implements YAML 1.1, whose resolver reads
   `5e2`, `1e-3` and `1.0e308` as *strings* (1.1 wants a dot and a signed exponent), `010` as
   octal 8 and `1:30` as 90. Here every 1.2 float form (`5e2`, `5E2`, `+1e+3`, `-2.5e-3`, `.5`,
-  `5.`, `.inf`, `.nan`) is a float, and an integer is decimal, `0o17` or `0x1F`.
+  `5.`, `.inf`, `.nan`) is a float, and an integer is decimal, `0o17` or `0x1F`. A date
+  (`2024-03-01T00:00:00`) is text, as in 1.2, not a 1.1 timestamp.
 - A key given twice in one mapping is an error naming both lines (PyYAML lets the last win).
 - Nesting deeper than MAX_DEPTH and documents that expand (through aliases) to more than
   MAX_VALUES values are errors: a 1 KB alias bomb expands to billions of values, and every
@@ -97,9 +98,13 @@ class _Loader(_SAFE_LOADER):
 
 
 # The 1.1 int and float resolvers out, the 1.2 ones in. Int first: an implicit scalar takes
-# the first resolver that matches, and every int would also match the float pattern.
+# the first resolver that matches, and every int would also match the float pattern. The 1.1
+# timestamp resolver out too (1.2 has none): `epoch_utc: 2024-03-01T00:00:00` is text, which
+# the field's own check reads, and an impossible date is that check's one-line error, not a
+# traceback from PyYAML's datetime constructor.
+_TIMESTAMP_TAG = "tag:yaml.org,2002:timestamp"
 _Loader.yaml_implicit_resolvers = {
-    first: [(tag, rx) for tag, rx in resolvers if tag not in (_FLOAT_TAG, _INT_TAG)]
+    first: [(tag, rx) for tag, rx in resolvers if tag not in (_FLOAT_TAG, _INT_TAG, _TIMESTAMP_TAG)]
     for first, resolvers in _SAFE_LOADER.yaml_implicit_resolvers.items()
 }
 _Loader.add_implicit_resolver(_INT_TAG, _INT_12, list("-+0123456789"))

@@ -50,6 +50,17 @@ def test_special_floats_and_non_numbers_keep_their_yaml_meaning():
 MASS_FORMS = ["5e2", "5E2", "+5e2", "5e+2", "5.e2", "0.5e3", "50e1", "5000e-1"]
 
 
+def test_dates_are_text_as_in_yaml_1_2_and_a_bad_one_is_the_fields_error():
+    """YAML 1.1 reads an unquoted date as a timestamp: the epoch would be refused as not a
+    string, and an impossible date was a traceback from PyYAML's datetime constructor."""
+    data = parse_yaml("a: 2024-03-01T00:00:00\nb: 2000-13-01T00:00:00\nc: 2002-12-14")
+    assert data == {"a": "2024-03-01T00:00:00", "b": "2000-13-01T00:00:00", "c": "2002-12-14"}
+    scenario = parse_scenario("orbit: {epoch_utc: 2024-03-01T00:00:00}", "s.yaml")
+    assert scenario.orbit.epoch_utc == "2024-03-01T00:00:00"
+    with pytest.raises(ScenarioFileError, match=r"^s.yaml: orbit.epoch_utc: not a valid date"):
+        parse_scenario("orbit: {epoch_utc: 2000-13-01T00:00:00}", "s.yaml")
+
+
 @pytest.mark.parametrize("text", MASS_FORMS)
 def test_scenario_file_takes_exponent_numbers(text):
     scenario = parse_scenario(f"chaser:\n  mass_kg: {text}\n")
