@@ -23,7 +23,7 @@ from rpod.models.config import CHOICES_KEY, ConfigError, check_bounds
 from rpod.models.docking import DockingGeometry
 from rpod.models.frames import rotation_from_rpy_deg, rotation_from_wxyz
 from rpod.models.gravity import GRAVITY_MODELS, MIN_ALTITUDE_M
-from rpod.models.orbit import OrbitConfig, initial_orbit_state, lvlh_of
+from rpod.models.orbit import OrbitConfig, epoch_utc_datetime64, initial_orbit_state, lvlh_of
 from rpod.models.rigid_body import validate_inertia
 from rpod.models.shapes import (
     ConvexPolytope,
@@ -485,6 +485,10 @@ def validate_scenario(scenario: Scenario) -> None:
     )
     for name in ("raan_deg", "arg_latitude_deg"):
         _require(math.isfinite(getattr(orbit, name)), f"orbit.{name}", "must be finite")
+    try:
+        epoch_utc_datetime64(orbit.epoch_utc)
+    except ValueError as error:
+        raise ScenarioError("orbit.epoch_utc", str(error)) from None
 
     chaser = scenario.chaser
     _norm_at_most(_vector(chaser.p_LC_L, "chaser.p_LC_L"), MAX_RANGE_M, "chaser.p_LC_L", "m")

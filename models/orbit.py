@@ -1,7 +1,8 @@
 """The target's orbit as a scenario sets it up: its config, its state at t = 0, its LVLH frame.
 
-Owns: `OrbitConfig` (the circular orbit of the target and the truth gravity model a scenario
-names), `initial_orbit_state` (the target's ECI state at t = 0 from it) and `lvlh_of` (the LVLH
+Owns: `OrbitConfig` (the circular orbit of the target, the truth gravity model a scenario
+names and the UTC epoch of t = 0), `epoch_utc_datetime64` (that epoch, checked),
+`initial_orbit_state` (the target's ECI state at t = 0 from it) and `lvlh_of` (the LVLH
 attitude and rate of a target state under a gravity model, with free space's convention).
 Does not own: the gravity models (rpod.models.gravity), the LVLH construction itself
 (rpod.models.frames), or integrating any of it in time (rpod.systems.truth).
@@ -12,6 +13,10 @@ one configures the orbit model, not one system: the truth (rpod.systems.truth), 
 (which must not import rpod.systems) may need it too. It is plain data with its two functions of
 the model, so it lives with the models it parameterises.
 
+The epoch labels time only: the truth has no epoch-dependent force (no Sun, Moon or Earth
+rotation), so the simulation is the same whatever it is. It places the run in calendar time
+for tools that read its trajectory (rpod.scenarios.export, CCSDS OEM/AEM).
+
 Free space (`gravity == 'free_space'`, the planar air-bearing case of paper 003): no gravity,
 the target rests at the origin and L coincides with I (identity attitude, zero rate).
 """
@@ -20,6 +25,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 
 import numpy as np
 
@@ -37,6 +43,10 @@ class OrbitConfig:
         raan_deg: right ascension of the ascending node.
         arg_latitude_deg: argument of latitude of the target at t = 0.
         gravity: one of 'two_body_j2', 'two_body', 'cw', 'free_space'.
+        epoch_utc: the UTC date and time of t = 0, ISO 8601 (`YYYY-MM-DDTHH:MM:SS[.fff]`, an
+            optional `Z`; rpod reads YAML dates as text, quoted or not); the default is
+            J2000.0 (2000-01-01T12:00:00 TT) in UTC. It labels exported trajectories and
+            changes no physics.
     """
 
     altitude_m: float = 500e3
@@ -44,6 +54,23 @@ class OrbitConfig:
     raan_deg: float = 0.0
     arg_latitude_deg: float = 0.0
     gravity: str = "two_body_j2"
+    epoch_utc: str = "2000-01-01T11:58:55.816"
+
+
+EPOCH_UTC_PATTERN = re.compile(r"\d{4}-\d{2}-\d{2}T\d{2}:\d{2}:\d{2}(\.\d{1,9})?Z?")
+
+
+def epoch_utc_datetime64(epoch_utc: str) -> np.datetime64:
+    """The epoch as numpy.datetime64 in ns; ValueError with a one-line reason if it is not a
+    valid `YYYY-MM-DDTHH:MM:SS[.fffffffff][Z]` (no leap second 60: numpy has none)."""
+    if not isinstance(epoch_utc, str) or not EPOCH_UTC_PATTERN.fullmatch(epoch_utc):
+        raise ValueError(
+            f"expected a UTC date and time YYYY-MM-DDTHH:MM:SS[.fff][Z], got {epoch_utc!r}"
+        )
+    try:
+        return np.datetime64(epoch_utc.removesuffix("Z"), "ns")
+    except ValueError as error:  # month 13, February 30, second 60
+        raise ValueError(f"not a valid date and time: {error}") from None
 
 
 def initial_orbit_state(orbit: OrbitConfig) -> tuple[np.ndarray, np.ndarray]:

@@ -1,6 +1,7 @@
 """The `rpod` command line: run a scenario, sweep a campaign, report on it, list what is bundled.
 
-Commands: `rpod run SCENARIO`, `rpod sweep CAMPAIGN`, `rpod report RESULTS`, `rpod list`.
+Commands: `rpod run SCENARIO`, `rpod sweep CAMPAIGN`, `rpod report RESULTS`, `rpod export RUN`,
+`rpod list`.
 
 Exit status: 0 on success (`run`: the mission succeeded, or the scenario has no mission to
 judge); 1 when a simulation failed (its outputs are written and its summary says why; for
@@ -23,6 +24,7 @@ EXIT_SIMULATION_FAILED = 1
 EXIT_BAD_INPUT = 2
 EXIT_MISSION_FAILED = 3
 DEFAULT_SCENARIO = "hold_point"
+EXPORT_FORMATS = ("ccsds",)  # rpod.scenarios.export.FORMATS, without importing it to parse
 SET_HELP = (
     "override one field, a dotted path with a YAML value (repeatable): "
     "--set chaser.mass_kg=400 --set 'chaser.p_LC_L=[0, -40, 0]' --set controller.hold_distance_m=5"
@@ -197,19 +199,42 @@ def _rerun(campaign, runs, wanted: str, out_dir: pathlib.Path, args) -> int:
 
 def _cmd_report(args) -> int:
     from rpod.scenarios.report import write_report
+    from rpod.scenarios.store import store_path
 
     text, plots = write_report(
-        args.results, out_dir=args.out, metrics=args.metrics, overwrite=args.overwrite
+        args.results,
+        out_dir=args.out,
+        metrics=args.metrics,
+        overwrite=args.overwrite,
+        formats=tuple(args.format),
     )
     print(text)
-    if plots:
-        print(f"{len(plots)} plots -> {plots[0].parent}")
+    out = args.out or store_path(pathlib.Path(args.results)).parent / "report"
+    tables = "".join(f", runs.{fmt}" for fmt in args.format)
+    print(f"report.md, report.html{tables} and {len(plots)} plots -> {out}")
+    return 0
+
+
+def _export_line(run, written) -> str:
+    """The one line `rpod export` (and `rpod run --export`) prints."""
+    names = ", ".join(path.name for path in written)
+    return f"{run}: CCSDS OEM and AEM (EME2000, UTC): {names} -> {written[0].parent}"
+
+
+def _cmd_export(args) -> int:
+    from rpod.scenarios.export import export_ccsds
+
+    print(_export_line(args.run, export_ccsds(args.run, out_dir=args.out)))
     return 0
 
 
 def _cmd_run(args) -> int:
     name, scenario = _load_with_sets(args.scenario, args.set)
     out_dir = pathlib.Path(args.out) if args.out else pathlib.Path("runs") / name
+    if args.export:  # refused before a long run, not after it
+        from rpod.scenarios.export import check_exportable
+
+        check_exportable(scenario, args.scenario)
     from rpod.diagrams.scenario import scenario_warnings
     from rpod.scenarios.run import run_to_folder, sigterm_as_interrupt  # heavy: only to run
 
@@ -236,6 +261,10 @@ def _cmd_run(args) -> int:
         if warning not in said:  # the run's own (a plan that outlasts it), said at the end
             print(f"rpod: warning: {warning}", file=sys.stderr)
     print(run_line(name, summary, out_dir))
+    if args.export:  # into the complete run folder, listed in its manifest (export.py)
+        from rpod.scenarios.export import export_ccsds
+
+        print(_export_line(out_dir, export_ccsds(out_dir)))
     return run_exit_status(summary)
 
 
@@ -300,6 +329,12 @@ def make_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="replace --out even if it is a folder rpod did not write (once the run is "
         "complete; never a file)",
+    )
+    run.add_argument(
+        "--export",
+        choices=EXPORT_FORMATS,
+        help="also write the chaser and target trajectories and attitudes into OUT/ccsds/ "
+        "(CCSDS OEM and AEM, as `rpod export`)",
     )
     run.set_defaults(handler=_cmd_run)
     plan = commands.add_parser(
@@ -396,10 +431,28 @@ def make_parser() -> argparse.ArgumentParser:
         type=lambda text: [m for m in text.split(",") if m],
         help="comma-separated metrics to summarise (default: all numeric)",
     )
+    report.add_argument(
+        "--format",
+        type=lambda text: [f for f in text.split(",") if f],
+        default=[],
+        help="also write the runs as one table, one row per run with every override and "
+        "metric: parquet (runs.parquet, units in its metadata), csv (runs.csv and "
+        "runs.csv-metadata.json), or both (parquet,csv)",
+    )
     report.set_defaults(handler=_cmd_report)
+    export = commands.add_parser(
+        "export",
+        help="write a run's chaser and target as CCSDS OEM (trajectory) and AEM (attitude)",
+    )
+    export.add_argument("run", help="a run folder (rpod run's --out)")
+    export.add_argument(
+        "--format", choices=EXPORT_FORMATS, default="ccsds", help="file format (default: ccsds)"
+    )
+    export.add_argument("--out", help="output folder (default: RUN/ccsds)")
+    export.set_defaults(handler=_cmd_export)
     listing = commands.add_parser("list", help="list bundled scenarios and campaigns")
     listing.set_defaults(handler=_cmd_list)
-    for command in (run, plan, sweep, report):
+    for command in (run, plan, sweep, report, export):
         command.add_argument(
             "--plugin", action="append", default=[], metavar="MODULE_OR_FILE", help=PLUGIN_HELP
         )

@@ -17,8 +17,10 @@ timeout or crash has none, and a simulation that failed stopped early. A boolean
 (e.g. `hold_reached`) is reported as the share of runs where it is true. Plots use
 matplotlib's object API (Figure, no pyplot), so they are safe in any process.
 
-The output folder (`--out`, default RESULTS/report). A report writes report.md and its plots
-(.png) into the folder, replacing files of the same names, and last a manifest, `.rpod-output`
+The output folder (`--out`, default RESULTS/report). A report writes report.md, report.html
+(the same as one self-contained page: report_html.py), its plots (.png) and, with `--format
+parquet` or `csv`, the table of the runs (tables.py) into the folder, replacing files of the
+same names, and last a manifest, `.rpod-output`
 (JSON: {"written_by": "rpod", "command": "report", "format": 1, "entries": [...]}, what rpod
 report has written there, the format of `rpod run`'s manifest, rpod.scenarios.run). As `rpod
 run` does, it writes only where it may replace what is there: a folder that does not exist (it
@@ -55,6 +57,7 @@ MAX_GROUPS_PER_HISTOGRAM = 8
 MANIFEST = ".rpod-output"  # the name of `rpod run`'s manifest (rpod.scenarios.run.MANIFEST)
 MANIFEST_FORMAT = 1
 REPORT_TEXT = "report.md"
+REPORT_HTML = "report.html"  # the same report as one self-contained page (report_html.py)
 SHOWN_NAMES = 3  # names of foreign files said in a refusal
 
 
@@ -91,7 +94,7 @@ def _format(value: float) -> str:
     return f"{value:.4g}"
 
 
-def _table(header: list[str], rows: list[list[str]], right: set[int]) -> list[str]:
+def _text_table(header: list[str], rows: list[list[str]], right: set[int]) -> list[str]:
     widths = [max(len(str(cell)) for cell in column) for column in zip(header, *rows)]
 
     def line(cells):
@@ -114,11 +117,19 @@ def _percent(k: int, n: int) -> str:
 
 
 def summary_text(
-    meta: dict, rows: list[dict], metrics: list[str], results_folder: str = "RESULTS"
+    meta: dict,
+    rows: list[dict],
+    metrics: list[str],
+    results_folder: str = "RESULTS",
+    table=None,
 ) -> str:
     """The report's tables as plain text: mission success first, then safety, then, for a
     campaign of methods flying the same starts, their comparison (rpod.scenarios.comparison;
-    its rerun commands name results_folder), then the rest."""
+    its rerun commands name results_folder), then the rest.
+
+    `table(header, rows, right) -> lines` draws each table (default: aligned plain text; the
+    HTML report passes its own)."""
+    _table = table or _text_table
     groups = _groups(rows)
     finished = [r for r in rows if r["status"] != "pending"]
     judged = mission_share(rows).n
@@ -188,9 +199,9 @@ def summary_text(
 
     # Each controller plug-in may add its own table (e.g. a campaign beside its paper).
     for plugin in controller_seam.controller_plugins():
-        table = plugin.campaign_table(rows)
-        if table is not None:
-            title, header, table_rows = table
+        plugin_table = plugin.campaign_table(rows)
+        if plugin_table is not None:
+            title, header, table_rows = plugin_table
             lines += ["", title, ""]
             lines += _table(header, table_rows, set())
 
@@ -423,8 +434,15 @@ def _write_manifest(out_dir: pathlib.Path, entries: set[str]) -> None:
     os.replace(staging, out_dir / MANIFEST)
 
 
-def write_report(results, out_dir=None, metrics: list[str] | None = None, overwrite: bool = False):
-    """(summary text, plot paths); writes report.md and the plots into out_dir.
+def write_report(
+    results,
+    out_dir=None,
+    metrics: list[str] | None = None,
+    overwrite: bool = False,
+    formats: tuple[str, ...] = (),
+):
+    """(summary text, plot paths); writes report.md, report.html, the plots and the run tables
+    of `formats` into out_dir.
 
     The store is only read (see store.py); a bad --out, one that cannot be written, or an
     existing folder rpod report did not write (unless `overwrite`; module docstring) is a
@@ -436,7 +454,17 @@ def write_report(results, out_dir=None, metrics: list[str] | None = None, overwr
         metrics: metrics to summarise (default: every scalar metric of the ok runs).
         overwrite: write into an existing folder that rpod report did not write (`--overwrite`),
             replacing its files of the same names.
+        formats: run tables to write besides the report (rpod.scenarios.tables):
+            'parquet' (runs.parquet), 'csv' (runs.csv and its metadata).
     """
+    from rpod.scenarios import report_html, tables
+
+    unknown_formats = [f for f in formats if f not in tables.TABLE_FORMATS]
+    if unknown_formats:
+        raise ScenarioFileError(
+            f"--format: unknown format(s) {_cut(', '.join(unknown_formats), 120)} "
+            f"(known: {', '.join(tables.TABLE_FORMATS)})"
+        )
     meta, rows = read_results(results)
     names = metric_names(rows)
     if metrics:
@@ -450,14 +478,21 @@ def write_report(results, out_dir=None, metrics: list[str] | None = None, overwr
     out_dir = pathlib.Path(out_dir) if out_dir else store_path(results).parent / "report"
     written = check_report_folder(out_dir, overwrite)
     make_folder(out_dir)
-    text = summary_text(meta, rows, names, str(store_path(results).parent))
+    folder = str(store_path(results).parent)
+    text = summary_text(meta, rows, names, folder)
     try:
         (out_dir / REPORT_TEXT).write_text("```\n" + text + "\n```\n")
         plots = comparison_figures(rows, out_dir)
         plots += _histograms(rows, names, out_dir) + _grid_maps(meta, rows, names, out_dir)
         for plugin in controller_seam.controller_plugins():  # e.g. a paper's figures
             plots += plugin.campaign_figures(rows, out_dir)
-        written |= {REPORT_TEXT} | {pathlib.Path(plot).name for plot in plots}
+        html_text = summary_text(meta, rows, names, folder, table=report_html.html_table)
+        page = report_html.report_html(meta, rows, html_text, folder, plots)
+        (out_dir / REPORT_HTML).write_text(page, encoding="utf-8")
+        table_files = []
+        for fmt in formats:
+            table_files += tables.write_table(meta, rows, out_dir, fmt)
+        written |= {REPORT_TEXT, REPORT_HTML} | {pathlib.Path(p).name for p in plots + table_files}
         _write_manifest(out_dir, {e for e in written if os.path.lexists(out_dir / e)})
     except OSError as error:
         raise ScenarioFileError(

@@ -112,13 +112,14 @@ class SweepOutcome:
 
 
 class Progress:
-    """Runs done / failed / remaining, mission success so far and ETA, on stderr.
+    """Runs done / failed / remaining, mission success so far, rate and ETA, on stderr.
 
     Mission success counts the finished runs with a verdict (rpod.scenarios.report
     .mission_success): a run that ran is not a run that succeeded.
 
-    On a terminal the line is redrawn in place. Otherwise (a log file, CI) a line is written
-    per update, at most one a second, and always the last one.
+    On a terminal it is a progress bar (tqdm) with the rate and the ETA, the counts after it,
+    kept on screen when the sweep ends. Otherwise (a log file, CI) a plain line is written per
+    update, at most one a second, and always the last one.
     """
 
     def __init__(self, label: str, total: int, ok: int, failed: int, stream=None):
@@ -129,6 +130,23 @@ class Progress:
         self._done_before = ok + failed
         self._start = time.monotonic()
         self._last_write = float("-inf")
+        self._bar = None
+        if self.tty:
+            from tqdm import tqdm
+
+            self._bar = tqdm(
+                total=total,
+                initial=self._done_before,
+                desc=label,
+                unit="run",
+                # The counts and the mission success first: tqdm cuts a line at the terminal's
+                # width, and they matter more than the timings (tqdm puts ", " before them).
+                bar_format="{desc}: {n_fmt}/{total_fmt} runs{postfix} |{bar}| "
+                "{percentage:3.0f}% [{elapsed}<{remaining}, {rate_fmt}]",
+                file=self.stream,
+                **_bar_size(),
+                smoothing=0.05,  # the rate over many runs: their lengths differ widely
+            )
 
     def judge(self, rows) -> None:
         """Counts the mission verdicts of finished runs (store rows or run results)."""
@@ -138,35 +156,41 @@ class Progress:
                 self.judged += 1
                 self.successes += verdict
 
+    def _success(self) -> str:
+        if not self.judged:
+            return "mission success --"
+        share = 100.0 * self.successes / self.judged
+        return f"mission success {share:.1f}% ({self.successes}/{self.judged})"
+
     def update(self, ok: int, failed: int, final: bool = False) -> None:
         self.ok, self.failed = ok, failed
-        now = time.monotonic()
-        if not (final or self.tty or now - self._last_write >= 1.0):
-            return
-        self._last_write = now
         done = ok + failed
         left = self.total - done
+        if self.tty:
+            if self._bar is None:  # closed by the final update
+                return
+            self._bar.update(done - self._bar.n)
+            self._bar.set_postfix_str(f"{failed} failed | {self._success()}")
+            if final:
+                self._bar.close()
+                self._bar = None
+            return
+        now = time.monotonic()
+        if not (final or now - self._last_write >= 1.0):
+            return
+        self._last_write = now
         rate = (done - self._done_before) / max(now - self._start, 1e-9)
         if left == 0:
             eta = "0:00:00"
         else:
             eta = str(datetime.timedelta(seconds=round(left / rate))) if rate > 0 else "--"
-        if self.judged:
-            share = 100.0 * self.successes / self.judged
-            success = f"mission success {share:.1f}% ({self.successes}/{self.judged})"
-        else:
-            success = "mission success --"
         width = 20
         filled = int(width * done / self.total) if self.total else width
         line = (
             f"{self.label} [{'#' * filled}{'.' * (width - filled)}] {done}/{self.total} done"
-            f", {failed} failed, {left} left | {success} | {rate:.2f} runs/s | ETA {eta}"
+            f", {failed} failed, {left} left | {self._success()} | {rate:.2f} runs/s | ETA {eta}"
         )
-        if self.tty:  # one screen line, or "\r" could not redraw it
-            line = line[: max(20, shutil.get_terminal_size().columns - 1)]
-            self.stream.write("\r" + line + "\033[K" + ("\n" if final else ""))
-        else:
-            self.stream.write(line + "\n")
+        self.stream.write(line + "\n")
         self.stream.flush()
 
 
@@ -728,3 +752,11 @@ def _submit_all(
     return SweepOutcome(
         counts, ran, interrupted, lost, startup_s, run_phase_s, store.path, first_result_s
     )
+
+
+def _bar_size() -> dict:
+    """tqdm's ncols and nrows: the terminal's, the line one short (so that "\\r" redraws it);
+    80 x 24 for a terminal that states no size (a pseudo-terminal of 0 x 0, where tqdm would
+    draw nothing)."""
+    columns, lines = shutil.get_terminal_size()
+    return {"ncols": (columns if columns > 1 else 80) - 1, "nrows": lines if lines > 1 else 24}

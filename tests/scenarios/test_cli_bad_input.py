@@ -51,6 +51,7 @@ BAD_FILES = [
         "target.corridor_half_angle_deg",
     ),
     ("unknown_gravity", "orbit:\n  gravity: moon\n", "orbit.gravity"),
+    ("epoch_not_a_date", "orbit:\n  epoch_utc: '2000-13-01T00:00:00'\n", "orbit.epoch_utc"),
     ("vector_length", "chaser:\n  v_LC_L: [0.0, 0.0]\n", "chaser.v_LC_L"),
     ("top_level_not_mapping", "- 1\n- 2\n", "(top level)"),
 ]

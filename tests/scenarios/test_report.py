@@ -130,7 +130,7 @@ def test_a_new_folder_gets_the_report_and_its_manifest(tmp_path):
     assert (out / "report.md").is_file() and plots and all(p.parent == out for p in plots)
     manifest = json.loads((out / ".rpod-output").read_text())
     assert manifest["written_by"] == "rpod" and manifest["command"] == "report"
-    assert set(manifest["entries"]) == {"report.md", *(p.name for p in plots)}
+    assert set(manifest["entries"]) == {"report.md", "report.html", *(p.name for p in plots)}
 
 
 def test_a_report_is_written_again_into_its_own_folder(tmp_path):
