@@ -2,14 +2,15 @@
 
 Owns: `RunProgress`, the callback simulate() calls about twice a second of wall time while a
 run goes on (rpod.diagrams.simulate), and the phase lines around it (building and the first
-plan; writing the outputs).
+plan; writing the outputs), and `bar_size`, the terminal size both bars are drawn in.
 Does not own: the run (simulate) or its one result line (cli.run_line).
 
 On a terminal, a run that lasts more than `bar_after_s` of wall time gets a progress bar (tqdm:
 simulated seconds, real-time factor, time left), redrawn in place and cleared at the end, so
-only the result line stays; the phases are one line redrawn in the same place. Elsewhere (a log file, CI, a test's captured stderr) nothing is written for a short run;
-a run that goes on longer than `quiet_s` writes a plain line every `every_s`, so a log shows
-that a long run is alive and where it is.
+only the result line stays; the phases are one line redrawn in the same place. Elsewhere (a
+log file, CI, a test's captured stderr) nothing is written for a short run; a run that goes on
+longer than `quiet_s` writes a plain line every `every_s`, so a log shows that a long run is
+alive and where it is.
 """
 
 import shutil
@@ -89,7 +90,7 @@ class RunProgress:
                 desc=f"rpod: {self.name}",
                 file=self.stream,
                 leave=False,
-                **_bar_size(),
+                **bar_size(),
                 bar_format=_BAR_FORMAT,
                 initial=min(t_s, end_s),
                 postfix=f"{rate:.0f}x real time",
@@ -118,9 +119,9 @@ class RunProgress:
         self._drawn = True
 
 
-def _bar_size() -> dict:
-    """tqdm's ncols and nrows: the terminal's, the line one short (so that "\\r" redraws it);
-    80 x 24 for a terminal that states no size (a pseudo-terminal of 0 x 0, where tqdm would
-    draw nothing)."""
+def bar_size() -> dict:
+    """tqdm's ncols and nrows (for `rpod run`'s bar and the sweep's): the terminal's, the line
+    one short (so that "\\r" redraws it); 80 x 24 for a terminal that states no size (a
+    pseudo-terminal of 0 x 0, where tqdm would draw nothing)."""
     columns, lines = shutil.get_terminal_size()
     return {"ncols": (columns if columns > 1 else 80) - 1, "nrows": lines if lines > 1 else 24}

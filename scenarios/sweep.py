@@ -57,7 +57,6 @@ import logging
 import math
 import os
 import pathlib
-import shutil
 import signal
 import sys
 import time
@@ -67,6 +66,7 @@ from collections import deque
 
 from rpod.scenarios.campaign import Campaign, PlannedRun, base_fingerprint
 from rpod.scenarios.loader import ScenarioFileError
+from rpod.scenarios.run_progress import bar_size
 from rpod.scenarios.store import (
     STORE_NAME,
     ResultStore,
@@ -117,8 +117,8 @@ class Progress:
     Mission success counts the finished runs with a verdict (rpod.scenarios.report
     .mission_success): a run that ran is not a run that succeeded.
 
-    On a terminal it is a progress bar (tqdm) with the rate and the ETA, the counts after it,
-    kept on screen when the sweep ends. Otherwise (a log file, CI) a plain line is written per
+    On a terminal it is a progress bar (tqdm): the counts and the mission success first, then
+    the bar, the ETA and the rate; kept on screen when the sweep ends. Otherwise (a log file, CI) a plain line is written per
     update, at most one a second, and always the last one.
     """
 
@@ -144,7 +144,7 @@ class Progress:
                 bar_format="{desc}: {n_fmt}/{total_fmt} runs{postfix} |{bar}| "
                 "{percentage:3.0f}% [{elapsed}<{remaining}, {rate_fmt}]",
                 file=self.stream,
-                **_bar_size(),
+                **bar_size(),
                 smoothing=0.05,  # the rate over many runs: their lengths differ widely
             )
 
@@ -752,11 +752,3 @@ def _submit_all(
     return SweepOutcome(
         counts, ran, interrupted, lost, startup_s, run_phase_s, store.path, first_result_s
     )
-
-
-def _bar_size() -> dict:
-    """tqdm's ncols and nrows: the terminal's, the line one short (so that "\\r" redraws it);
-    80 x 24 for a terminal that states no size (a pseudo-terminal of 0 x 0, where tqdm would
-    draw nothing)."""
-    columns, lines = shutil.get_terminal_size()
-    return {"ncols": (columns if columns > 1 else 80) - 1, "nrows": lines if lines > 1 else 24}
