@@ -59,7 +59,8 @@ def _text_to_html(text: str, contact: bool) -> list[str]:
     """The report's text (tables marked by html_table) as HTML blocks.
 
     The first line is the title, the next paragraph (mission success) the lead, the one after
-    it (safety) set below it, in red when a run touched (`contact`); a paragraph that ends with ':' and precedes a table heads it.
+    it (safety) set below it, in red when a run touched (`contact`); a paragraph that ends
+    with ':' and precedes a table heads it.
     """
     blocks, paragraph = [], []
 

@@ -118,8 +118,8 @@ class Progress:
     .mission_success): a run that ran is not a run that succeeded.
 
     On a terminal it is a progress bar (tqdm): the counts and the mission success first, then
-    the bar, the ETA and the rate; kept on screen when the sweep ends. Otherwise (a log file, CI) a plain line is written per
-    update, at most one a second, and always the last one.
+    the bar, the ETA and the rate; kept on screen when the sweep ends. Otherwise (a log file,
+    CI) a plain line is written per update, at most one a second, and always the last one.
     """
 
     def __init__(self, label: str, total: int, ok: int, failed: int, stream=None):
