@@ -42,7 +42,7 @@ import pathlib
 import numpy as np
 
 from rpod.models.statistics import SuccessShare
-from rpod.scenarios.store import contact_occurred, mission_success
+from rpod.scenarios.store import contact_occurred, mission_success, rerun_command
 
 TRUTH_FED, ESTIMATED = "truth-fed", "estimated"
 COLUMNS = (TRUTH_FED, ESTIMATED)
@@ -378,7 +378,6 @@ def comparison_lines(meta: dict, rows: list[dict], results_folder: str, table) -
     lines += table(["method", "column", *CLASSES], failure_rows, set(range(2, 2 + len(CLASSES))))
     found = disagreements(all_cells)
     lines += ["", f"Starts on which methods disagree: {len(found)}", ""]
-    campaign = meta.get("campaign_name", "CAMPAIGN")
     listed = []
     for d in found[:MAX_DISAGREEMENTS_LISTED]:
         method, run_id = next(iter(d["failed"].items()))
@@ -390,7 +389,7 @@ def comparison_lines(meta: dict, rows: list[dict], results_folder: str, table) -
                 _fmt(d["start_range_m"]),
                 ", ".join(d["captured"]),
                 ", ".join(d["failed"]),
-                f"rpod sweep {campaign} --out {results_folder} --rerun {run_id}",
+                rerun_command(meta, results_folder, run_id),
             ]
         )
     if listed:

@@ -14,7 +14,7 @@ import base64
 import html
 import pathlib
 
-from rpod.scenarios.store import contact_occurred, mission_success
+from rpod.scenarios.store import contact_occurred, mission_success, rerun_command
 
 _TABLE_MARK = "\x00html-table\x00"  # prefixes a line that holds an HTML table, not text
 MAX_FAILED_LISTED = 500
@@ -108,7 +108,6 @@ def _failed_runs(meta: dict, rows: list[dict], results_folder: str) -> list[str]
     failed = [row for row in rows if mission_success(row) is False]
     if not failed:
         return []
-    campaign = meta.get("campaign_name", "CAMPAIGN")
     table_rows = []
     for row in failed[:MAX_FAILED_LISTED]:
         mission = (row["metrics"] or {}).get("mission") or {}
@@ -119,7 +118,7 @@ def _failed_runs(meta: dict, rows: list[dict], results_folder: str) -> list[str]
                 row["grp"],
                 "" if row["sample_index"] is None else row["sample_index"],
                 why or "",
-                f"rpod sweep {campaign} --out {results_folder} --rerun {row['run_id']}",
+                rerun_command(meta, results_folder, row["run_id"]),
             ]
         )
     shown = "" if len(failed) <= MAX_FAILED_LISTED else f" (the first {MAX_FAILED_LISTED})"

@@ -49,6 +49,7 @@ import json
 import math
 import os
 import pathlib
+import shlex
 import sqlite3
 
 from rpod.scenarios.loader import ScenarioFileError
@@ -503,3 +504,19 @@ def mission_success(row: dict) -> bool | None:
 def contact_occurred(row: dict) -> bool:
     """Whether the run's true shapes touched (summary `contact.occurred`)."""
     return bool(((row["metrics"] or {}).get("contact") or {}).get("occurred"))
+
+
+def rerun_command(meta: dict, results_folder: str, run_id: str) -> str:
+    """The command that flies a stored run again with every output (`rpod sweep --rerun`).
+
+    The campaign is named as the sweep was given it: a bundled campaign by its name (its file
+    in a `bundled/campaigns` folder, wherever the package was), any other by its file's path.
+    """
+    name = meta.get("campaign_name") or "CAMPAIGN"
+    source = meta.get("campaign_source")
+    campaign = name
+    if source:
+        path = pathlib.PurePath(source)
+        bundled = path.parent.name == "campaigns" and path.parent.parent.name == "bundled"
+        campaign = name if bundled and path.stem == name else shlex.quote(source)
+    return f"rpod sweep {campaign} --out {shlex.quote(results_folder)} --rerun {run_id}"

@@ -11,6 +11,7 @@ from report_store import make_store
 
 from rpod.diagrams.recording import find_chromium, screenshot_html
 from rpod.scenarios import report
+from rpod.scenarios.store import rerun_command
 
 
 @pytest.fixture(scope="module")
@@ -59,3 +60,17 @@ def test_chromium_draws_the_lead_the_alarm_and_the_figures(written, tmp_path):
     figure_blue = (abs(red - 31) < 25) & (abs(green - 119) < 25) & (abs(blue - 180) < 25)
     assert figure_blue.sum() > 300, "no figure drawn"
     assert np.argmax(figure_blue.any(axis=1)) > 200  # below the tables, where the figures are
+
+
+@pytest.mark.parametrize(
+    "source, campaign",
+    [
+        (None, "fake"),  # a store from before the source was kept
+        ("/elsewhere/scenarios/bundled/campaigns/fake.yaml", "fake"),  # bundled, any install
+        ("/home/me/my campaigns/fake.yaml", "'/home/me/my campaigns/fake.yaml'"),  # a file
+    ],
+)
+def test_a_rerun_names_the_campaign_as_the_sweep_was_given_it(source, campaign):
+    meta = {"campaign_name": "fake", "campaign_source": source}
+    command = rerun_command(meta, "runs/my results", "00ff")
+    assert command == f"rpod sweep {campaign} --out 'runs/my results' --rerun 00ff"
