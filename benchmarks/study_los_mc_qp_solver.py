@@ -1,8 +1,8 @@
 """Paper 004's Monte Carlo flown with another QP solver: steps without a usable input, outcomes.
 
-    rpod sweep CAMPAIGN_DAQP --out DAQP          # los_monte_carlo + controller.mpc.qp_solver: daqp
-    rpod sweep CAMPAIGN_OSQP --out OSQP          # every 5th start, rpod's cases, OSQP (default)
-    python benchmarks/study_los_mc_qp_solver.py DAQP OSQP
+    rpod sweep benchmarks/campaigns/los_monte_carlo_daqp.yaml --out runs/lmc_daqp
+    rpod sweep benchmarks/campaigns/los_monte_carlo_osqp_1in5.yaml --out runs/lmc_osqp
+    python benchmarks/study_los_mc_qp_solver.py runs/lmc_daqp runs/lmc_osqp
 
 Issue 23's goal for paper 004's MPC: zero steps without a usable input over the 3,900-run Monte
 Carlo. A step without a usable input is one where no QP gave an input when one was due and the
