@@ -7,7 +7,8 @@
 Issue 23's goal for paper 004's MPC: zero steps without a usable input over the 3,900-run Monte
 Carlo. A step without a usable input is one where no QP gave an input when one was due and the
 controller flew the previous plan or the brake (the seam's `solver_failures`; a best-effort QP
-outside the corridor and the far command are fallbacks by design, not failures). For each store:
+outside the corridor and the far command are fallbacks by design, not failures), counted by
+the hard QP's status at that step (`los_no_input_by_status`). For each store:
 runs, Sec. 9's classification (rpod.planners.reachability_mc, choice 1), the summed
 `solver_failures`, `los_qp_not_solved` and `los_fallback_steps`, and the per-step compute (the
 controller's step timer: the worst run's p99 and max). Then the two solvers on the starts both
@@ -77,6 +78,34 @@ def summary_row(label: str, rows: list[dict]) -> list:
     ]
 
 
+def status_lines(flown) -> list[str]:
+    """The steps without a usable input by the hard QP's status (los_no_input_by_status): a
+    primal-infeasible verdict certifies that no input kept the corridor; the others do not."""
+    totals = []
+    for solver, folder, rows in flown:
+        total: dict[str, int] = {}
+        for row in rows:
+            for key, count in ((row["metrics"] or {}).get("los_no_input_by_status") or {}).items():
+                total[key] = total.get(key, 0) + count
+        totals.append((f"{solver} ({folder.name})", total))
+    keys = sorted({key for _, total in totals for key, count in total.items() if count})
+    if not any(total for _, total in totals):
+        return ["(The stores' summaries hold no los_no_input_by_status: flown before it.)"]
+    lines = [
+        (
+            "Steps without a usable input by the hard QP's status at that step (far_: the far "
+            "regime, which has no best-effort QP; skipped: the hard QP not tried beyond one "
+            "step of the corridor):"
+        ),
+        "",
+        "| solver (campaign) | " + " | ".join(keys) + " |",
+        "| --- | " + " | ".join("---:" for _ in keys) + " |",
+    ]
+    for label, total in totals:
+        lines.append(f"| {label} | " + " | ".join(str(total.get(key, 0)) for key in keys) + " |")
+    return lines
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("stores", type=pathlib.Path, nargs="+", help="campaign output folders")
@@ -108,6 +137,7 @@ def main() -> None:
         "| --- | " + " | ".join("---:" for _ in header[1:]) + " |",
     ]
     lines += ["| " + " | ".join(str(cell) for cell in row) + " |" for row in table]
+    lines += ["", *status_lines(flown)]
     if len(flown) >= 2:
         (name_a, _, rows_a), (name_b, _, rows_b) = flown[:2]
         by_start_b = {_start(row): row for row in rows_b}

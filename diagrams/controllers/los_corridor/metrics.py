@@ -3,8 +3,8 @@
 Owns: `violation_summary` (the depth, time in violation and first time of a corridor
 violation, for any code that reports on the corridor: these results and figures.py),
 `applied_acceleration_L`, and `los_results`: the arrays the plug-in adds to log.npz, its
-summary.json entries (violations, regimes, the MPC's statuses and fallbacks) and the mission
-outcome.
+summary.json entries (violations, regimes, the MPC's statuses and fallbacks, the steps without
+a usable input by the hard QP's status: `no_input_by_status`) and the mission outcome.
 Does not own: the corridor (rpod.models.los_corridor), the guidance and its status codes
 (rpod.systems.los_guidance), the figures (figures.py) or the campaign tables (tables.py).
 
@@ -100,6 +100,25 @@ def _sync_range_m(scenario) -> float:
     return sync_range_m(scenario.controller.a_max_m_s2, omega) if omega > 0 else math.inf
 
 
+def no_input_by_status(codes: np.ndarray, fallbacks: np.ndarray, regimes: np.ndarray) -> dict:
+    """The steps without a usable input (`solver_failures`: the previous plan or the brake
+    flew) counted by what the hard QP said at that step: an MpcStatus value, or `skipped`
+    (beyond one step of the corridor the hard QP is not tried: skip_hard_qp_outside), each
+    split into the far regime (`far_...`: no best-effort QP there, by design) and the others
+    (where the best-effort QP was tried too and also gave nothing). `primal_infeasible` is the
+    solver's certificate that no input keeps the corridor; `max_iterations` and `other` leave
+    open whether one existed. Fixed keys, so a campaign table has one column each."""
+    names = {code: status.value for status, code in MPC_STATUS_CODES.items()}
+    no_input = (fallbacks == Fallback.PREVIOUS_PLAN) | (fallbacks == Fallback.BRAKE)
+    counts = {}
+    for far in (True, False):
+        in_regime = no_input & ((regimes == Regime.FAR) == far)
+        for code, name in [*names.items(), (-1, "skipped")]:
+            key = ("far_" if far else "") + name
+            counts[key] = int(np.count_nonzero(in_regime & (codes == code)))
+    return counts
+
+
 def los_log(scenario, p_TH_T: np.ndarray, log: dict, R_TK=None) -> dict:
     """The arrays added to log.npz (figures.py documents each): the raw status vector split
     (and removed: None), the range in T, the constant levels, the applied acceleration, and
@@ -179,6 +198,7 @@ def los_results(
         "los_fallback_brake": int(np.count_nonzero(fallbacks == Fallback.BRAKE)),
         "los_fallback_far_command": int(np.count_nonzero(fallbacks == Fallback.NOMINAL)),
         "los_fallback_best_effort": int(np.count_nonzero(fallbacks == Fallback.BEST_EFFORT)),
+        "los_no_input_by_status": no_input_by_status(codes, fallbacks, regime[steps]),
         "los_regime_steps": {
             regime_kind.name.lower(): int(np.count_nonzero(regime[steps] == regime_kind))
             for regime_kind in Regime
