@@ -40,8 +40,9 @@ def _solver(meta: dict) -> str:
     """The QP solver a campaign's overrides chose (OSQP when none did)."""
     text = meta.get("campaign_text", "")
     for line in text.splitlines():
-        if "controller.mpc.qp_solver:" in line:
-            return line.split(":", 1)[1].strip()
+        setting = line.split("#", 1)[0]  # not the files' comments
+        if "controller.mpc.qp_solver:" in setting:
+            return setting.split(":", 1)[1].strip()
     return "osqp"
 
 
