@@ -107,8 +107,9 @@ def replay(calls, settings, corridor) -> dict:
     }
 
 
-def _clarabel_u0(mpc, call) -> tuple[np.ndarray | None, float, int]:
-    """(u_0, wall time [s], iterations) of Clarabel's Python package on the step's QP."""
+def clarabel_solution(mpc, call):
+    """Clarabel's Python package on the QP mpc builds from one solve's arguments (call:
+    x_k, x_ref, u_prev, A_d, B_d, u_nom): (its solution, wall time [s])."""
     import clarabel
 
     P, q, A, l, u = mpc.qp(*call[:5], u_nom=call[5])
@@ -124,7 +125,12 @@ def _clarabel_u0(mpc, call) -> tuple[np.ndarray | None, float, int]:
     settings.verbose = False
     start = time.perf_counter()
     solution = clarabel.DefaultSolver(P, q, A_cl, b_cl, cones, settings).solve()
-    elapsed = time.perf_counter() - start
+    return solution, time.perf_counter() - start
+
+
+def _clarabel_u0(mpc, call) -> tuple[np.ndarray | None, float, int]:
+    """(u_0, wall time [s], iterations) of Clarabel's Python package on the step's QP."""
+    solution, elapsed = clarabel_solution(mpc, call)
     if str(solution.status) != "Solved":
         return None, elapsed, int(solution.iterations)
     z = np.asarray(solution.x)

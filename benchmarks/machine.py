@@ -1,5 +1,6 @@
 """What the benchmarks share (imported by the scripts beside it): the machine line they print
-above their tables, writing a results file, and timing a method in place."""
+above their tables, writing a results file (keeping its hand-written section), and timing a
+method in place."""
 
 import importlib.metadata
 import os
@@ -41,6 +42,16 @@ def write_results(path: pathlib.Path, lines: list[str]) -> None:
     print(text, end="")
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(text)
+
+
+def with_notes(path: pathlib.Path, lines: list[str], heading: str) -> list[str]:
+    """lines, then the section of the results file at path that starts at `heading` (its
+    hand-written reading of the numbers), so that a rerun keeps it; lines alone if none."""
+    if path.exists():
+        old = path.read_text()
+        if heading in old:
+            return [*lines, "", heading + old.split(heading, 1)[1].rstrip("\n")]
+    return lines
 
 
 def timed(cls, name: str):

@@ -15,9 +15,8 @@ for two cores). Needs the bench extra (clarabel).
 import argparse
 import pathlib
 
-import clarabel
 import numpy as np
-import scipy.sparse as sp
+from bench_los_corridor_mpc import clarabel_solution  # beside this script
 
 from rpod.diagrams.simulate import simulate
 from rpod.planners.los_corridor_mpc import LosCorridorMpc, MpcStatus
@@ -29,18 +28,7 @@ CAMPAIGN = pathlib.Path(__file__).resolve().parent / "campaigns" / "los_monte_ca
 
 def clarabel_status(mpc: LosCorridorMpc, args: tuple) -> str:
     """Clarabel's verdict on the QP mpc builds from one solve's arguments."""
-    P, q, A, l, u = mpc.qp(*args[:5], u_nom=args[5])
-    eq = l == u
-    upper, lower = ~eq & np.isfinite(u), ~eq & np.isfinite(l)
-    A_cl = sp.vstack([A[eq], A[upper], -A[lower]]).tocsc()
-    b_cl = np.concatenate([l[eq], u[upper], -l[lower]])
-    cones = [
-        clarabel.ZeroConeT(int(eq.sum())),
-        clarabel.NonnegativeConeT(int(upper.sum() + lower.sum())),
-    ]
-    settings = clarabel.DefaultSettings()
-    settings.verbose = False
-    return str(clarabel.DefaultSolver(P, q, A_cl, b_cl, cones, settings).solve().status)
+    return str(clarabel_solution(mpc, args)[0].status)
 
 
 def main() -> None:

@@ -14,7 +14,7 @@ import argparse
 import pathlib
 import sys
 
-from machine import machine_line, write_results  # benchmarks/machine.py, beside this script
+from machine import machine_line, with_notes, write_results  # benchmarks/machine.py
 
 from rpod.planners import reachability_mc as mc
 from rpod.scenarios.store import ResultStore
@@ -118,11 +118,7 @@ def main() -> None:
         )
     if len(changed) > 10:
         lines.append(f"- and {len(changed) - 10} more")
-    if RESULTS.exists():  # the hand-written reading of the numbers is kept across reruns
-        old = RESULTS.read_text()
-        if NOTES in old:
-            lines += ["", NOTES + old.split(NOTES, 1)[1].rstrip("\n")]
-    write_results(RESULTS, lines)
+    write_results(RESULTS, with_notes(RESULTS, lines, NOTES))
 
 
 if __name__ == "__main__":

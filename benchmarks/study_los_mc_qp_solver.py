@@ -21,7 +21,7 @@ import json
 import pathlib
 
 import numpy as np
-from machine import machine_line, write_results  # benchmarks/machine.py, beside this script
+from machine import machine_line, with_notes, write_results  # benchmarks/machine.py
 
 from rpod.planners import reachability_mc as mc
 from rpod.scenarios.report import read_results
@@ -169,11 +169,7 @@ def main() -> None:
                     f"| {row['case_name']} | {start} | {'feasible' if feasible_a else 'not'}: "
                     f"{why_a} | {'feasible' if feasible_b else 'not'}: {why_b} |"
                 )
-    if RESULTS.exists():  # keep the hand-written section
-        old = RESULTS.read_text()
-        if NOTES in old:
-            lines += ["", NOTES + old.split(NOTES, 1)[1].rstrip("\n")]
-    write_results(RESULTS, lines)
+    write_results(RESULTS, with_notes(RESULTS, lines, NOTES))
 
 
 if __name__ == "__main__":

@@ -22,7 +22,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
-from machine import machine_line, write_results
+from machine import machine_line, with_notes, write_results
 
 from rpod.diagrams.controllers.planar_approach import PlanarApproach
 from rpod.models import planar_approach as pa
@@ -272,11 +272,7 @@ def main() -> None:
 
     _figure(curves, {"paper": paper, "rpod": rpod, "method": method})
     lines += ["", f"Figure: `{FIGURE.name}`."]
-    if RESULTS.exists():  # the hand-written reading of the numbers is kept across reruns
-        old = RESULTS.read_text()
-        if NOTES in old:
-            lines += ["", NOTES + old.split(NOTES, 1)[1].rstrip("\n")]
-    write_results(RESULTS, lines)
+    write_results(RESULTS, with_notes(RESULTS, lines, NOTES))
 
 
 def _figure(curves: dict, groups: dict) -> None:
